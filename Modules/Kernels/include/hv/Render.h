@@ -1,0 +1,384 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+#ifndef hv_Render_h
+#define hv_Render_h
+
+#include "hv/Camera.h"
+#include "hv/Environment.h"
+#include "hv/Lights.h"
+#include "hv/Tracking.h"
+
+namespace hv
+{
+// The four illumination models of the paper's comparison; all share classification,
+// camera and stereo.
+enum IlluminationModel : int
+{
+  EmissionAbsorption = 0,     // Li et al.: colour as emission, no light sources
+  GradientPhong = 1,          // Waschk et al.: Phong with the scene lights, no shadows
+  PrefilteredEnvironment = 2, // Rhee et al.: environment pre-filtered to irradiance, no shadows
+  PathTraced = 3              // ours: Monte-Carlo path tracing with shadows
+};
+
+struct SceneView
+{
+  VolumeView volume;
+  ClippingPlanes clipping;
+  EnvironmentView environment;
+  PointLightView lights[MaximumLights];
+  int lightCount = 0;
+  int model = PathTraced;
+  int maximumBounces = 1;        // 1: single scattering with next-event estimation
+  int rouletteStartBounce = 3;   // Russian roulette from this scatter event on
+  float anisotropy = 0.0f;       // Henyey-Greenstein g
+  bool environmentVisible = false; // show the environment behind the volume
+  // Ray-marched models only.
+  float stepLength = 1.0f;       // world units
+  float ambient = 0.1f;
+  float diffuse = 0.7f;
+  float specular = 0.2f;
+  float specularPower = 10.0f;
+  glm::vec3 irradianceSH[9];     // order-2 spherical harmonics of the map-frame radiance
+};
+
+// What one pixel returns for one frame. Radiance is the mean over the frame's samples
+// (premultiplied by coverage unless the environment is visible); the auxiliary values
+// describe the first scatter point of the first sample whose primary path scattered.
+struct PixelResult
+{
+  glm::vec4 radiance = glm::vec4(0.0f);
+  glm::vec3 firstScatterPosition = glm::vec3(0.0f);
+  float depth = 0.0f;
+  glm::vec3 albedo = glm::vec3(0.0f);
+  glm::vec3 normal = glm::vec3(0.0f);
+  float gradientMagnitude = 0.0f;
+  int hit = 0;
+};
+
+struct FirstScatter
+{
+  glm::vec3 position;
+  glm::vec3 albedo;
+  glm::vec3 normal;
+  float gradientMagnitude;
+  bool valid;
+};
+
+// Local optical state at an index-space point: albedo, unit world normal facing the viewer,
+// normalised gradient magnitude.
+HV_FUNCTION void shadingFrame(const VolumeView& volume, const glm::vec3& p, const glm::vec3& rayDirection,
+  glm::vec3& albedo, glm::vec3& normal, float& gradientMagnitude)
+{
+  albedo = volume.transfer.albedoAt(volume.scalarAt(p));
+  const glm::vec3 gradient = volume.worldGradient(p);
+  const float magnitude = glm::length(gradient);
+  gradientMagnitude = glm::min(magnitude / volume.maxGradientMagnitude, 1.0f);
+  normal = magnitude > 1e-12f ? gradient / magnitude : glm::vec3(0.0f);
+  if (glm::dot(normal, rayDirection) > 0.0f)
+  {
+    normal = -normal;
+  }
+}
+
+// Directional density of a scatter event for a new propagation direction: the HG phase
+// function for a volume event, cos+/pi (the Lambertian BRDF times the cosine) for a surface
+// event. Both integrate to one, so the event's albedo is the path-throughput weight.
+HV_FUNCTION float scatterDensity(bool surfaceEvent, const glm::vec3& normal, const glm::vec3& incoming,
+  const glm::vec3& outgoing, float g)
+{
+  if (surfaceEvent)
+  {
+    return glm::max(glm::dot(normal, outgoing), 0.0f) * InvPi;
+  }
+  return henyeyGreenstein(glm::dot(incoming, outgoing), g);
+}
+
+HV_FUNCTION float transmittanceTowards(const SceneView& scene, const glm::vec3& x, const glm::vec3& direction,
+  float distance, Pcg32& rng)
+{
+  IndexRay ray;
+  if (!makeIndexRay(scene.volume, scene.clipping, x, direction, RayEpsilon, distance, ray))
+  {
+    return 1.0f;
+  }
+  return estimateTransmittance(scene.volume, ray, rng);
+}
+
+// Monte-Carlo path tracing of the volume (radiative transfer equation with delta tracking,
+// next-event estimation, and multiple importance sampling between the environment and the
+// phase function / BRDF). Returns the radiance along the ray; `covered` tells whether the
+// primary ray had a real collision.
+HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::vec3 direction, float tMax,
+  Pcg32& rng, FirstScatter& first, bool& covered)
+{
+  const VolumeView& volume = scene.volume;
+  glm::vec3 radiance(0.0f);
+  glm::vec3 throughput(1.0f);
+  float previousDirectionalPdf = 0.0f;
+  covered = false;
+  first.valid = false;
+  for (int scatterEvents = 0;; ++scatterEvents)
+  {
+    IndexRay ray;
+    float tCollision = 0.0f;
+    const float tStart = scatterEvents == 0 ? 0.0f : RayEpsilon;
+    const bool collided = makeIndexRay(volume, scene.clipping, origin, direction, tStart, tMax, ray) &&
+      sampleFreeFlight(volume, ray, rng, tCollision);
+    if (!collided)
+    {
+      if (scatterEvents == 0)
+      {
+        if (scene.environmentVisible)
+        {
+          radiance += scene.environment.evaluate(direction);
+        }
+      }
+      else
+      {
+        // The environment reached by phase/BRDF sampling, weighted against light sampling.
+        const float weight = powerHeuristic(previousDirectionalPdf, scene.environment.pdf(direction));
+        radiance += throughput * weight * scene.environment.evaluate(direction);
+      }
+      break;
+    }
+    if (scatterEvents >= scene.maximumBounces)
+    {
+      break; // the sampled direction hit the medium again: a longer path than allowed
+    }
+
+    const glm::vec3 indexPosition = ray.origin + tCollision * ray.direction;
+    const glm::vec3 position = origin + tCollision * direction;
+    glm::vec3 albedo, normal;
+    float gradientMagnitude;
+    shadingFrame(volume, indexPosition, direction, albedo, normal, gradientMagnitude);
+    if (scatterEvents == 0)
+    {
+      covered = true;
+      first.position = position;
+      first.albedo = albedo;
+      first.normal = normal;
+      first.gradientMagnitude = gradientMagnitude;
+      first.valid = true;
+    }
+
+    // Hybrid scattering (Kroes et al. 2012): a surface event with probability growing with
+    // the normalised gradient magnitude, otherwise a phase-function event.
+    const float surfaceProbability = 1.0f - glm::exp(-volume.surfaceFactor * gradientMagnitude);
+    const bool surfaceEvent = gradientMagnitude > 0.0f && rng.nextFloat() < surfaceProbability;
+    throughput *= albedo;
+
+    // Next-event estimation: the renderer's lights (delta distributions, no MIS) ...
+    for (int i = 0; i < scene.lightCount; ++i)
+    {
+      glm::vec3 toLight;
+      float distance;
+      const glm::vec3 intensity = evaluateLight(scene.lights[i], position, toLight, distance);
+      const float density = scatterDensity(surfaceEvent, normal, direction, toLight, scene.anisotropy);
+      if (density > 0.0f && (intensity.x + intensity.y + intensity.z) > 0.0f)
+      {
+        // Irradiance pi * I so that a white Lambertian surface facing a light of intensity I
+        // has radiance I, as under VTK's Phong lighting.
+        radiance += throughput * density * Pi * intensity *
+          transmittanceTowards(scene, position, toLight, distance, rng);
+      }
+    }
+    // ... and the environment, importance-sampled, MIS-weighted against the phase/BRDF.
+    {
+      float lightPdf;
+      const glm::vec3 toLight = scene.environment.sampleDirection(rng.nextFloat(), rng.nextFloat(), lightPdf);
+      const float density = scatterDensity(surfaceEvent, normal, direction, toLight, scene.anisotropy);
+      if (lightPdf > 0.0f && density > 0.0f)
+      {
+        const glm::vec3 environmentRadiance = scene.environment.evaluate(toLight);
+        if (environmentRadiance.x + environmentRadiance.y + environmentRadiance.z > 0.0f)
+        {
+          const float weight = powerHeuristic(lightPdf, density);
+          radiance += throughput * environmentRadiance * (density * weight / lightPdf) *
+            transmittanceTowards(scene, position, toLight, Infinity, rng);
+        }
+      }
+    }
+
+    // Continue by sampling the phase function or the BRDF exactly: the weight density/pdf is 1.
+    const float u1 = rng.nextFloat();
+    const float u2 = rng.nextFloat();
+    glm::vec3 next;
+    if (surfaceEvent)
+    {
+      next = sampleCosineHemisphere(normal, u1, u2);
+    }
+    else
+    {
+      next = sampleHenyeyGreenstein(direction, scene.anisotropy, u1, u2);
+    }
+    previousDirectionalPdf = scatterDensity(surfaceEvent, normal, direction, next, scene.anisotropy);
+    if (previousDirectionalPdf <= 0.0f)
+    {
+      break;
+    }
+    if (scatterEvents + 1 >= scene.rouletteStartBounce)
+    {
+      const float survival = glm::min(glm::max(throughput.x, glm::max(throughput.y, throughput.z)), 0.95f);
+      if (rng.nextFloat() >= survival)
+      {
+        break;
+      }
+      throughput /= survival;
+    }
+    origin = position;
+    direction = next;
+    tMax = Infinity;
+  }
+  return radiance;
+}
+
+// Order-2 spherical-harmonic irradiance (Ramamoorthi and Hanrahan 2001, Eq. 13), for a
+// map-frame normal, from the radiance coefficients L_lm in the order
+// (0,0) (1,-1) (1,0) (1,1) (2,-2) (2,-1) (2,0) (2,1) (2,2).
+HV_FUNCTION glm::vec3 irradianceFromSH(const glm::vec3* L, const glm::vec3& n)
+{
+  const float c1 = 0.429043f, c2 = 0.511664f, c3 = 0.743125f, c4 = 0.886227f, c5 = 0.247708f;
+  const float x = n.x, y = n.y, z = n.z;
+  return c1 * L[8] * (x * x - y * y) + c3 * L[6] * z * z + c4 * L[0] - c5 * L[6] +
+    2.0f * c1 * (L[4] * x * y + L[7] * x * z + L[5] * y * z) +
+    2.0f * c2 * (L[3] * x + L[1] * y + L[2] * z);
+}
+
+// The three reference models: front-to-back compositing at a fixed step (jittered per
+// sample), skipping empty macrocells. Radiance is premultiplied by the accumulated opacity.
+HV_FUNCTION glm::vec4 marchRay(const SceneView& scene, const glm::vec3& origin, const glm::vec3& direction,
+  float tMax, Pcg32& rng, FirstScatter& first)
+{
+  first.valid = false;
+  IndexRay ray;
+  if (!makeIndexRay(scene.volume, scene.clipping, origin, direction, 0.0f, tMax, ray))
+  {
+    return glm::vec4(0.0f);
+  }
+  const VolumeView& volume = scene.volume;
+  const float step = scene.stepLength;
+  const float jitter = rng.nextFloat();
+  glm::vec3 color(0.0f);
+  float transmittance = 1.0f;
+  MajorantIterator it;
+  it.begin(volume, ray);
+  float exit;
+  float majorant;
+  while (transmittance > 1e-3f && it.segment(volume, exit, majorant))
+  {
+    if (majorant > 0.0f)
+    {
+      // Samples sit on one global lattice tMin + (k + jitter) * step across cells.
+      float k = glm::ceil((it.t - ray.tMin) / step - jitter);
+      for (float t = ray.tMin + (k + jitter) * step; t < exit && transmittance > 1e-3f; t += step)
+      {
+        const glm::vec3 p = ray.origin + t * ray.direction;
+        const float sigma = volume.sigmaT(p);
+        if (sigma <= 0.0f)
+        {
+          continue;
+        }
+        const float alpha = 1.0f - glm::exp(-sigma * step);
+        glm::vec3 albedo, normal;
+        float gradientMagnitude;
+        shadingFrame(volume, p, direction, albedo, normal, gradientMagnitude);
+        glm::vec3 shaded = albedo;
+        if (scene.model == GradientPhong)
+        {
+          glm::vec3 lit = albedo * scene.ambient;
+          for (int i = 0; i < scene.lightCount; ++i)
+          {
+            glm::vec3 toLight;
+            float distance;
+            const glm::vec3 intensity = evaluateLight(scene.lights[i], origin + t * direction, toLight, distance);
+            // Two-sided as in VTK's volume shading; no shadows.
+            const float nDotL = glm::abs(glm::dot(normal, toLight));
+            const glm::vec3 reflected = 2.0f * glm::dot(normal, toLight) * normal - toLight;
+            const float rDotV = glm::max(glm::dot(reflected, -direction), 0.0f);
+            lit += intensity * (scene.diffuse * nDotL * albedo +
+                                 scene.specular * glm::pow(rDotV, scene.specularPower));
+          }
+          shaded = lit;
+        }
+        else if (scene.model == PrefilteredEnvironment)
+        {
+          // Irradiance E(n) / pi where the gradient defines a surface, the mean radiance
+          // (what an isotropic phase function gathers) inside homogeneous material.
+          const float surfaceProbability = 1.0f - glm::exp(-volume.surfaceFactor * gradientMagnitude);
+          const glm::vec3 mapNormal = scene.environment.worldToMap * normal;
+          const glm::vec3 irradiance = scene.environment.scale * glm::max(irradianceFromSH(scene.irradianceSH, mapNormal), glm::vec3(0.0f));
+          const glm::vec3 meanRadiance = scene.environment.scale * scene.irradianceSH[0] * 0.282095f;
+          shaded = albedo * (surfaceProbability * irradiance * InvPi + (1.0f - surfaceProbability) * meanRadiance);
+        }
+        color += transmittance * alpha * shaded;
+        if (!first.valid && transmittance * (1.0f - alpha) < 0.5f)
+        {
+          // The depth where the accumulated opacity crosses one half stands in for a first
+          // scatter point in the deterministic models.
+          first.position = origin + t * direction;
+          first.albedo = albedo;
+          first.normal = normal;
+          first.gradientMagnitude = gradientMagnitude;
+          first.valid = true;
+        }
+        transmittance *= 1.0f - alpha;
+      }
+    }
+    it.advance(volume);
+  }
+  if (scene.environmentVisible)
+  {
+    color += transmittance * scene.environment.evaluate(direction);
+  }
+  return glm::vec4(color, 1.0f - transmittance);
+}
+
+// All samples of one pixel in one frame of one eye. The random stream depends only on
+// (pixel, frame, eye, seed), so images do not depend on the thread count.
+HV_FUNCTION PixelResult renderPixel(const SceneView& scene, const EyeView& eye, int x, int y,
+  std::uint32_t eyeIndex, std::uint32_t frameIndex, std::uint64_t seed, int samplesPerPixel)
+{
+  PixelResult result;
+  const std::uint32_t pixelIndex = static_cast<std::uint32_t>(y) * static_cast<std::uint32_t>(eye.width) + static_cast<std::uint32_t>(x);
+  Pcg32 rng = makePixelRng(pixelIndex, frameIndex, eyeIndex, seed);
+  glm::vec3 sum(0.0f);
+  float coverage = 0.0f;
+  for (int s = 0; s < samplesPerPixel; ++s)
+  {
+    glm::vec3 origin, direction;
+    float length;
+    eye.generateRay(x + rng.nextFloat(), y + rng.nextFloat(), origin, direction, length);
+    FirstScatter first;
+    if (scene.model == PathTraced)
+    {
+      bool covered;
+      sum += tracePath(scene, origin, direction, length, rng, first, covered);
+      coverage += covered ? 1.0f : 0.0f;
+    }
+    else
+    {
+      const glm::vec4 marched = marchRay(scene, origin, direction, length, rng, first);
+      sum += glm::vec3(marched);
+      coverage += marched.w;
+    }
+    if (first.valid && !result.hit)
+    {
+      result.hit = 1;
+      result.firstScatterPosition = first.position;
+      result.depth = eye.viewDepth(first.position);
+      result.albedo = first.albedo;
+      result.normal = first.normal;
+      result.gradientMagnitude = first.gradientMagnitude;
+    }
+  }
+  const float inverseCount = 1.0f / static_cast<float>(samplesPerPixel);
+  result.radiance = glm::vec4(sum * inverseCount, coverage * inverseCount);
+  if (scene.environmentVisible)
+  {
+    result.radiance.w = 1.0f;
+  }
+  return result;
+}
+}
+
+#endif

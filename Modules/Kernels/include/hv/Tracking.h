@@ -1,0 +1,248 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+#ifndef hv_Tracking_h
+#define hv_Tracking_h
+
+#include "hv/Random.h"
+#include "hv/Volume.h"
+
+namespace hv
+{
+constexpr int MaximumClippingPlanes = 6;
+
+// A world ray expressed in index space: position(t) = origin + t * direction, where t is the
+// world distance because direction is the image of the unit world direction.
+struct IndexRay
+{
+  glm::vec3 origin;
+  glm::vec3 direction;
+  float tMin;
+  float tMax;
+};
+
+struct ClippingPlanes
+{
+  glm::vec4 planes[MaximumClippingPlanes]; // world-space (n, d): points with n.x + d >= 0 stay
+  int count = 0;
+};
+
+// Restricts a world ray to the part inside the data box [0, dims-1], the kept side of every
+// clipping plane and, for a subvolume crop, the crop box. Returns false when nothing is left.
+HV_FUNCTION bool makeIndexRay(const VolumeView& volume, const ClippingPlanes& clipping,
+  const glm::vec3& worldOrigin, const glm::vec3& worldDirection, float tMin, float tMax,
+  IndexRay& ray)
+{
+  ray.origin = glm::vec3(volume.worldToIndex * glm::vec4(worldOrigin, 1.0f));
+  ray.direction = glm::mat3(volume.worldToIndex) * worldDirection;
+  glm::vec3 boxLow(0.0f);
+  glm::vec3 boxHigh = glm::vec3(volume.dims - 1);
+  if (volume.cropping && volume.cropFlags == 0x2000)
+  {
+    boxLow = glm::max(boxLow, volume.cropLow);
+    boxHigh = glm::min(boxHigh, volume.cropHigh);
+  }
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    const float o = ray.origin[axis];
+    const float d = ray.direction[axis];
+    if (glm::abs(d) < 1e-12f)
+    {
+      if (o < boxLow[axis] || o > boxHigh[axis])
+      {
+        return false;
+      }
+      continue;
+    }
+    float t0 = (boxLow[axis] - o) / d;
+    float t1 = (boxHigh[axis] - o) / d;
+    if (t0 > t1)
+    {
+      const float swap = t0;
+      t0 = t1;
+      t1 = swap;
+    }
+    tMin = glm::max(tMin, t0);
+    tMax = glm::min(tMax, t1);
+  }
+  for (int i = 0; i < clipping.count; ++i)
+  {
+    const glm::vec3 n(clipping.planes[i]);
+    const float f0 = glm::dot(n, worldOrigin) + clipping.planes[i].w;
+    const float df = glm::dot(n, worldDirection);
+    if (glm::abs(df) < 1e-12f)
+    {
+      if (f0 < 0.0f)
+      {
+        return false;
+      }
+      continue;
+    }
+    const float tPlane = -f0 / df;
+    if (df > 0.0f)
+    {
+      tMin = glm::max(tMin, tPlane);
+    }
+    else
+    {
+      tMax = glm::min(tMax, tPlane);
+    }
+  }
+  ray.tMin = tMin;
+  ray.tMax = tMax;
+  return tMin < tMax;
+}
+
+// 3D-DDA over the majorant grid (Amanatides and Woo 1987): yields the macrocells a ray
+// crosses with their entry/exit parameters, so free-flight sampling can use a local majorant
+// and skip empty cells in one step.
+struct MajorantIterator
+{
+  glm::ivec3 cell;
+  glm::ivec3 step;
+  glm::vec3 tNext;
+  glm::vec3 tDelta;
+  float t;
+  float tEnd;
+
+  HV_FUNCTION void begin(const VolumeView& volume, const IndexRay& ray)
+  {
+    this->t = ray.tMin;
+    this->tEnd = ray.tMax;
+    const float cellSize = static_cast<float>(volume.cellSize);
+    const glm::vec3 p = ray.origin + ray.tMin * ray.direction;
+    for (int axis = 0; axis < 3; ++axis)
+    {
+      int c = static_cast<int>(glm::floor(p[axis] / cellSize));
+      c = glm::clamp(c, 0, volume.majorantDims[axis] - 1);
+      this->cell[axis] = c;
+      const float d = ray.direction[axis];
+      if (d > 0.0f)
+      {
+        this->step[axis] = 1;
+        this->tDelta[axis] = cellSize / d;
+        this->tNext[axis] = ray.tMin + ((c + 1) * cellSize - p[axis]) / d;
+      }
+      else if (d < 0.0f)
+      {
+        this->step[axis] = -1;
+        this->tDelta[axis] = -cellSize / d;
+        this->tNext[axis] = ray.tMin + (c * cellSize - p[axis]) / d;
+      }
+      else
+      {
+        this->step[axis] = 0;
+        this->tDelta[axis] = Infinity;
+        this->tNext[axis] = Infinity;
+      }
+    }
+  }
+
+  // The current segment [t, exit) and its majorant; false once the ray has left the grid.
+  HV_FUNCTION bool segment(const VolumeView& volume, float& exit, float& majorant) const
+  {
+    if (this->t >= this->tEnd)
+    {
+      return false;
+    }
+    exit = glm::min(glm::min(this->tNext.x, this->tNext.y), glm::min(this->tNext.z, this->tEnd));
+    majorant = volume.majorantOfCell(this->cell);
+    return true;
+  }
+
+  HV_FUNCTION void advance(const VolumeView& volume)
+  {
+    int axis = 0;
+    if (this->tNext.y < this->tNext[axis])
+    {
+      axis = 1;
+    }
+    if (this->tNext.z < this->tNext[axis])
+    {
+      axis = 2;
+    }
+    this->t = this->tNext[axis];
+    this->cell[axis] += this->step[axis];
+    this->tNext[axis] += this->tDelta[axis];
+    if (this->cell[axis] < 0 || this->cell[axis] >= volume.majorantDims[axis])
+    {
+      this->t = this->tEnd;
+    }
+  }
+};
+
+// Delta (Woodcock) tracking with a piecewise-constant majorant: samples the distance to the
+// first real collision with density sigmaT(t) exp(-int_0^t sigmaT), unbiased for any
+// majorant >= sigmaT (Woodcock et al. 1965; Novak et al. 2018, Sec. 4). Returns false when
+// the ray leaves the medium, which happens with probability equal to the transmittance.
+HV_FUNCTION bool sampleFreeFlight(const VolumeView& volume, const IndexRay& ray, Pcg32& rng, float& tCollision)
+{
+  MajorantIterator it;
+  it.begin(volume, ray);
+  float exit;
+  float majorant;
+  while (it.segment(volume, exit, majorant))
+  {
+    if (majorant > 0.0f)
+    {
+      float t = it.t;
+      for (;;)
+      {
+        t -= glm::log(1.0f - rng.nextFloat()) / majorant;
+        if (t >= exit)
+        {
+          break;
+        }
+        const float sigma = volume.sigmaT(ray.origin + t * ray.direction);
+        if (rng.nextFloat() * majorant < sigma)
+        {
+          tCollision = t;
+          return true;
+        }
+      }
+    }
+    it.advance(volume);
+  }
+  return false;
+}
+
+// Ratio tracking (Cramer 1978; Novak et al. 2014): an unbiased transmittance estimate that
+// multiplies (1 - sigmaT / majorant) at tentative collisions; Russian roulette once the
+// estimate falls below 0.1 keeps deep shadow rays short without bias.
+HV_FUNCTION float estimateTransmittance(const VolumeView& volume, const IndexRay& ray, Pcg32& rng)
+{
+  MajorantIterator it;
+  it.begin(volume, ray);
+  float transmittance = 1.0f;
+  float exit;
+  float majorant;
+  while (it.segment(volume, exit, majorant))
+  {
+    if (majorant > 0.0f)
+    {
+      float t = it.t;
+      for (;;)
+      {
+        t -= glm::log(1.0f - rng.nextFloat()) / majorant;
+        if (t >= exit)
+        {
+          break;
+        }
+        const float sigma = volume.sigmaT(ray.origin + t * ray.direction);
+        transmittance *= 1.0f - glm::min(sigma / majorant, 1.0f);
+        if (transmittance < 0.1f)
+        {
+          if (rng.nextFloat() < 0.5f)
+          {
+            return 0.0f;
+          }
+          transmittance *= 2.0f;
+        }
+      }
+    }
+    it.advance(volume);
+  }
+  return transmittance;
+}
+}
+
+#endif

@@ -1,0 +1,152 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+#ifndef hv_Volume_h
+#define hv_Volume_h
+
+#include "hv/Platform.h"
+
+namespace hv
+{
+// Optical properties as functions of the scalar normalised to [0, 1] over the data range:
+// extinction sigmaT (per world length unit, DensityScale applied) and single-scattering
+// albedo (RGB). Sampled at `size` equidistant points and interpolated linearly, which is
+// what post-classification of a piecewise-linear VTK transfer function needs.
+struct TransferFunctionView
+{
+  const float* extinction = nullptr; // size
+  const float* albedo = nullptr;     // size * 3
+  int size = 0;
+
+  HV_FUNCTION float position(float s, int& i0) const
+  {
+    const float x = clampf(s, 0.0f, 1.0f) * static_cast<float>(this->size - 1);
+    i0 = glm::min(static_cast<int>(x), this->size - 2);
+    return x - static_cast<float>(i0);
+  }
+
+  HV_FUNCTION float sigmaT(float s) const
+  {
+    int i0;
+    const float w = this->position(s, i0);
+    return (1.0f - w) * this->extinction[i0] + w * this->extinction[i0 + 1];
+  }
+
+  HV_FUNCTION glm::vec3 albedoAt(float s) const
+  {
+    int i0;
+    const float w = this->position(s, i0);
+    const float* a = this->albedo + 3 * i0;
+    return (1.0f - w) * glm::vec3(a[0], a[1], a[2]) + w * glm::vec3(a[3], a[4], a[5]);
+  }
+};
+
+// A classified single-component volume on a regular grid. Positions handed to the lookups
+// are continuous index coordinates: voxel (i, j, k) sits at (i, j, k), the data occupy
+// [0, dims - 1]. Ray parameters stay in world units because the ray direction in index space
+// is the image of the unit world direction (see IndexRay in Tracking.h).
+struct VolumeView
+{
+  const float* scalar = nullptr;          // normalised scalar, x fastest
+  const float* gradientOpacity = nullptr; // optional per-voxel factor in [0, 1]
+  glm::ivec3 dims = glm::ivec3(0);
+  glm::mat4 worldToIndex = glm::mat4(1.0f);
+  glm::mat4 indexToWorld = glm::mat4(1.0f);
+  // Maps an index-space gradient to a world-space gradient: the transpose of the linear part
+  // of worldToIndex (chain rule: grad_world s = J^T grad_index s with J = d index / d world).
+  glm::mat3 gradientToWorld = glm::mat3(1.0f);
+  float maxGradientMagnitude = 1.0f; // world-space maximum, normalises the magnitude to [0, 1]
+  TransferFunctionView transfer;
+
+  // Majorant grid (macrocells of cellSize^3 voxels), an upper bound of sigmaT in each cell.
+  const float* majorant = nullptr;
+  glm::ivec3 majorantDims = glm::ivec3(0);
+  int cellSize = 8;
+
+  // VTK cropping: 27 regions separated by two index-space planes per axis; bit
+  // (x + 3y + 9z) of cropFlags keeps region (x, y, z).
+  bool cropping = false;
+  glm::vec3 cropLow = glm::vec3(0.0f);
+  glm::vec3 cropHigh = glm::vec3(0.0f);
+  int cropFlags = 0;
+
+  // Probability of a surface (BRDF) event: 1 - exp(-surfaceFactor * |grad s| / max |grad s|),
+  // the hybrid model of Kroes et al. 2012 (Exposure Render). 0 gives a pure volume.
+  float surfaceFactor = 0.0f;
+
+  HV_FUNCTION long voxelIndex(int i, int j, int k) const
+  {
+    return (static_cast<long>(k) * this->dims.y + j) * this->dims.x + i;
+  }
+
+  HV_FUNCTION float voxel(const float* field, int i, int j, int k) const
+  {
+    i = glm::clamp(i, 0, this->dims.x - 1);
+    j = glm::clamp(j, 0, this->dims.y - 1);
+    k = glm::clamp(k, 0, this->dims.z - 1);
+    return field[this->voxelIndex(i, j, k)];
+  }
+
+  HV_FUNCTION float trilinear(const float* field, const glm::vec3& p) const
+  {
+    const glm::vec3 q = glm::clamp(p, glm::vec3(0.0f), glm::vec3(this->dims - 1));
+    const glm::ivec3 base = glm::min(glm::ivec3(q), glm::max(this->dims - 2, glm::ivec3(0)));
+    const glm::vec3 w = q - glm::vec3(base);
+    const int i = base.x, j = base.y, k = base.z;
+    const int i1 = glm::min(i + 1, this->dims.x - 1);
+    const int j1 = glm::min(j + 1, this->dims.y - 1);
+    const int k1 = glm::min(k + 1, this->dims.z - 1);
+    const float c00 = glm::mix(field[this->voxelIndex(i, j, k)], field[this->voxelIndex(i1, j, k)], w.x);
+    const float c10 = glm::mix(field[this->voxelIndex(i, j1, k)], field[this->voxelIndex(i1, j1, k)], w.x);
+    const float c01 = glm::mix(field[this->voxelIndex(i, j, k1)], field[this->voxelIndex(i1, j, k1)], w.x);
+    const float c11 = glm::mix(field[this->voxelIndex(i, j1, k1)], field[this->voxelIndex(i1, j1, k1)], w.x);
+    return glm::mix(glm::mix(c00, c10, w.y), glm::mix(c01, c11, w.y), w.z);
+  }
+
+  HV_FUNCTION bool isCropped(const glm::vec3& p) const
+  {
+    if (!this->cropping)
+    {
+      return false;
+    }
+    const int x = p.x < this->cropLow.x ? 0 : (p.x < this->cropHigh.x ? 1 : 2);
+    const int y = p.y < this->cropLow.y ? 0 : (p.y < this->cropHigh.y ? 1 : 2);
+    const int z = p.z < this->cropLow.z ? 0 : (p.z < this->cropHigh.z ? 1 : 2);
+    return (this->cropFlags & (1 << (x + 3 * y + 9 * z))) == 0;
+  }
+
+  HV_FUNCTION float scalarAt(const glm::vec3& p) const { return this->trilinear(this->scalar, p); }
+
+  // Extinction at an index-space point: sigmaT(s(p)) times the gradient-opacity factor.
+  HV_FUNCTION float sigmaT(const glm::vec3& p) const
+  {
+    if (this->isCropped(p))
+    {
+      return 0.0f;
+    }
+    float sigma = this->transfer.sigmaT(this->scalarAt(p));
+    if (this->gradientOpacity != nullptr)
+    {
+      sigma *= this->trilinear(this->gradientOpacity, p);
+    }
+    return sigma;
+  }
+
+  // World-space gradient of the normalised scalar by central differences of the
+  // trilinear field, one voxel apart.
+  HV_FUNCTION glm::vec3 worldGradient(const glm::vec3& p) const
+  {
+    const glm::vec3 indexGradient(
+      0.5f * (this->scalarAt(p + glm::vec3(1, 0, 0)) - this->scalarAt(p - glm::vec3(1, 0, 0))),
+      0.5f * (this->scalarAt(p + glm::vec3(0, 1, 0)) - this->scalarAt(p - glm::vec3(0, 1, 0))),
+      0.5f * (this->scalarAt(p + glm::vec3(0, 0, 1)) - this->scalarAt(p - glm::vec3(0, 0, 1))));
+    return this->gradientToWorld * indexGradient;
+  }
+
+  HV_FUNCTION float majorantOfCell(const glm::ivec3& c) const
+  {
+    return this->majorant[(static_cast<long>(c.z) * this->majorantDims.y + c.y) * this->majorantDims.x + c.x];
+  }
+};
+}
+
+#endif

@@ -1,0 +1,218 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+#include "hv/VolumeGrid.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace hv
+{
+void VolumeGrid::setScalars(const glm::ivec3& dims, std::vector<float> normalizedScalars)
+{
+  this->Dims = dims;
+  this->Scalars = std::move(normalizedScalars);
+  this->GradientOpacityFactor.clear();
+  this->GradientMagnitude.clear();
+  this->updateCellRanges();
+  this->setIndexToWorld(this->IndexToWorld);
+}
+
+void VolumeGrid::setIndexToWorld(const glm::mat4& indexToWorld)
+{
+  const bool linearPartChanged = glm::mat3(indexToWorld) != glm::mat3(this->IndexToWorld);
+  this->IndexToWorld = indexToWorld;
+  if (this->Scalars.empty() || (!linearPartChanged && !this->GradientMagnitude.empty()))
+  {
+    return; // a translation leaves every gradient unchanged
+  }
+  // Per-voxel world gradient magnitudes; their maximum normalises the magnitude used by the
+  // hybrid scattering model, so it must follow spacing and the prop's scale.
+  const VolumeView v = this->view();
+  const long count = static_cast<long>(this->Scalars.size());
+  this->GradientMagnitude.resize(count);
+  float maximum = 0.0f;
+  for (int k = 0; k < this->Dims.z; ++k)
+  {
+    for (int j = 0; j < this->Dims.y; ++j)
+    {
+      for (int i = 0; i < this->Dims.x; ++i)
+      {
+        const glm::vec3 indexGradient(0.5f * (v.voxel(v.scalar, i + 1, j, k) - v.voxel(v.scalar, i - 1, j, k)),
+          0.5f * (v.voxel(v.scalar, i, j + 1, k) - v.voxel(v.scalar, i, j - 1, k)),
+          0.5f * (v.voxel(v.scalar, i, j, k + 1) - v.voxel(v.scalar, i, j, k - 1)));
+        const float magnitude = glm::length(v.gradientToWorld * indexGradient);
+        this->GradientMagnitude[v.voxelIndex(i, j, k)] = magnitude;
+        maximum = std::max(maximum, magnitude);
+      }
+    }
+  }
+  this->MaximumGradient = maximum > 0.0f ? maximum : 1.0f;
+}
+
+void VolumeGrid::setTransferFunction(const std::vector<float>& opacity, const std::vector<float>& albedoRGB,
+  float unitDistance, float densityScale)
+{
+  const std::size_t n = opacity.size();
+  this->Extinction.resize(n);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    // An opacity of exactly 1 would mean infinite extinction; cap it at 1 - 1e-6.
+    const float alpha = std::min(std::max(opacity[i], 0.0f), 1.0f - 1e-6f);
+    this->Extinction[i] = -std::log1p(-alpha) / unitDistance * densityScale;
+  }
+  this->Albedo = albedoRGB;
+  this->updateMajorants();
+}
+
+void VolumeGrid::setGradientOpacity(const std::vector<float>& table, float maximumRawGradient, float scalarRange)
+{
+  if (table.size() < 2 || this->GradientMagnitude.empty())
+  {
+    this->GradientOpacityFactor.clear();
+    this->updateMajorants();
+    return;
+  }
+  const long count = static_cast<long>(this->GradientMagnitude.size());
+  this->GradientOpacityFactor.resize(count);
+  const float last = static_cast<float>(table.size() - 1);
+  for (long i = 0; i < count; ++i)
+  {
+    // Back to raw scalar units per world unit, as VTK's gradient opacity expects.
+    const float raw = this->GradientMagnitude[i] * scalarRange;
+    const float x = maximumRawGradient > 0.0f ? std::min(raw / maximumRawGradient, 1.0f) * last : 0.0f;
+    const int i0 = std::min(static_cast<int>(x), static_cast<int>(last) - 1);
+    const float w = x - i0;
+    this->GradientOpacityFactor[i] = std::max(0.0f, (1.0f - w) * table[i0] + w * table[i0 + 1]);
+  }
+  this->updateCellRanges();
+}
+
+void VolumeGrid::setCellSize(int cellSize)
+{
+  cellSize = std::max(cellSize, 1);
+  if (cellSize != this->CellSize)
+  {
+    this->CellSize = cellSize;
+    this->updateCellRanges();
+  }
+}
+
+void VolumeGrid::setCropping(bool enabled, const glm::vec3& low, const glm::vec3& high, int flags)
+{
+  this->Cropping = enabled;
+  this->CropLow = low;
+  this->CropHigh = high;
+  this->CropFlags = flags;
+}
+
+void VolumeGrid::updateCellRanges()
+{
+  if (this->Scalars.empty())
+  {
+    return;
+  }
+  const int s = this->CellSize;
+  // Cell c covers index positions [c s, (c + 1) s]; trilinear lookups there read voxels in the
+  // same closed range, so their extremes bound every interpolated value.
+  this->CellDims = (this->Dims - 1) / s + 1;
+  const long cellCount = static_cast<long>(this->CellDims.x) * this->CellDims.y * this->CellDims.z;
+  this->CellScalarLow.assign(cellCount, 1.0f);
+  this->CellScalarHigh.assign(cellCount, 0.0f);
+  this->CellGradientOpacityHigh.assign(cellCount, this->GradientOpacityFactor.empty() ? 1.0f : 0.0f);
+  const VolumeView v = this->view();
+  for (int cz = 0; cz < this->CellDims.z; ++cz)
+  {
+    for (int cy = 0; cy < this->CellDims.y; ++cy)
+    {
+      for (int cx = 0; cx < this->CellDims.x; ++cx)
+      {
+        const long cell = (static_cast<long>(cz) * this->CellDims.y + cy) * this->CellDims.x + cx;
+        float low = 1.0f, high = 0.0f, gradientHigh = 0.0f;
+        for (int k = cz * s; k <= std::min((cz + 1) * s, this->Dims.z - 1); ++k)
+        {
+          for (int j = cy * s; j <= std::min((cy + 1) * s, this->Dims.y - 1); ++j)
+          {
+            for (int i = cx * s; i <= std::min((cx + 1) * s, this->Dims.x - 1); ++i)
+            {
+              const long index = v.voxelIndex(i, j, k);
+              low = std::min(low, this->Scalars[index]);
+              high = std::max(high, this->Scalars[index]);
+              if (!this->GradientOpacityFactor.empty())
+              {
+                gradientHigh = std::max(gradientHigh, this->GradientOpacityFactor[index]);
+              }
+            }
+          }
+        }
+        this->CellScalarLow[cell] = low;
+        this->CellScalarHigh[cell] = high;
+        if (!this->GradientOpacityFactor.empty())
+        {
+          this->CellGradientOpacityHigh[cell] = gradientHigh;
+        }
+      }
+    }
+  }
+  this->updateMajorants();
+}
+
+void VolumeGrid::updateMajorants()
+{
+  const long cellCount = static_cast<long>(this->CellScalarLow.size());
+  this->Majorant.assign(cellCount, 0.0f);
+  const int n = static_cast<int>(this->Extinction.size());
+  if (n < 2)
+  {
+    return;
+  }
+  for (long cell = 0; cell < cellCount; ++cell)
+  {
+    // The tabulated extinction is piecewise linear, so its maximum over [low, high] is at a
+    // table node inside the range or at one of the two interpolated ends.
+    const float x0 = std::min(std::max(this->CellScalarLow[cell], 0.0f), 1.0f) * (n - 1);
+    const float x1 = std::min(std::max(this->CellScalarHigh[cell], 0.0f), 1.0f) * (n - 1);
+    if (x1 < x0)
+    {
+      continue;
+    }
+    const int first = static_cast<int>(std::floor(x0));
+    const int last = std::min(static_cast<int>(std::ceil(x1)), n - 1);
+    float maximum = 0.0f;
+    for (int i = first; i <= last; ++i)
+    {
+      maximum = std::max(maximum, this->Extinction[i]);
+    }
+    // A 0.1 % margin absorbs float rounding in the interpolation.
+    this->Majorant[cell] = maximum * this->CellGradientOpacityHigh[cell] * 1.001f;
+  }
+}
+
+bool VolumeGrid::isTransparent() const
+{
+  return std::all_of(this->Majorant.begin(), this->Majorant.end(), [](float m) { return m <= 0.0f; });
+}
+
+VolumeView VolumeGrid::view() const
+{
+  VolumeView v;
+  v.scalar = this->Scalars.data();
+  v.gradientOpacity = this->GradientOpacityFactor.empty() ? nullptr : this->GradientOpacityFactor.data();
+  v.dims = this->Dims;
+  v.indexToWorld = this->IndexToWorld;
+  v.worldToIndex = glm::inverse(this->IndexToWorld);
+  v.gradientToWorld = glm::transpose(glm::mat3(v.worldToIndex));
+  v.maxGradientMagnitude = this->MaximumGradient;
+  v.transfer.extinction = this->Extinction.data();
+  v.transfer.albedo = this->Albedo.data();
+  v.transfer.size = static_cast<int>(this->Extinction.size());
+  v.majorant = this->Majorant.data();
+  v.majorantDims = this->CellDims;
+  v.cellSize = this->CellSize;
+  v.cropping = this->Cropping;
+  v.cropLow = this->CropLow;
+  v.cropHigh = this->CropHigh;
+  v.cropFlags = this->CropFlags;
+  v.surfaceFactor = this->SurfaceFactor;
+  return v;
+}
+}
