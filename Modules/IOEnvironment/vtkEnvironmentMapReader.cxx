@@ -90,6 +90,7 @@ int vtkEnvironmentMapReader::RequestData(vtkInformation*, vtkInformationVector**
   radiance->SetNumberOfTuples(static_cast<vtkIdType>(width) * height);
   float* target = radiance->GetPointer(0);
   this->NumberOfInvalidValues = 0;
+  this->NumberOfClampedNegativeValues = 0;
   for (int row = 0; row < height; ++row)
   {
     // Image files start at the top row; VTK images at the bottom one.
@@ -99,10 +100,17 @@ int vtkEnvironmentMapReader::RequestData(vtkInformation*, vtkInformationVector**
       for (int c = 0; c < 3; ++c)
       {
         float value = source[column * channels + (channels >= 3 ? c : 0)];
-        if (!std::isfinite(value) || value < 0.0f)
+        if (!std::isfinite(value))
         {
           ++this->NumberOfInvalidValues;
           value = this->ReplaceNonFiniteValues ? 0.0f : value;
+        }
+        else if (value < 0.0f)
+        {
+          // Lossy EXR compression (DWAA/DWAB, B44) undershoots to about -1e-3 near black;
+          // radiance cannot be negative.
+          ++this->NumberOfClampedNegativeValues;
+          value = 0.0f;
         }
         target[3 * (static_cast<std::size_t>(row) * width + column) + c] = value;
       }
@@ -112,7 +120,7 @@ int vtkEnvironmentMapReader::RequestData(vtkInformation*, vtkInformationVector**
   if (this->NumberOfInvalidValues > 0 && !this->ReplaceNonFiniteValues)
   {
     vtkErrorMacro("'" << this->FileName << "' has " << this->NumberOfInvalidValues
-                      << " NaN, infinite or negative values; turn ReplaceNonFiniteValues on to set them to "
+                      << " NaN or infinite values; turn ReplaceNonFiniteValues on to set them to "
                          "zero, or repair the file.");
     return 0;
   }
@@ -130,4 +138,5 @@ void vtkEnvironmentMapReader::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "FileName: " << (this->FileName ? this->FileName : "(none)") << "\n";
   os << indent << "ReplaceNonFiniteValues: " << (this->ReplaceNonFiniteValues ? "On" : "Off") << "\n";
   os << indent << "NumberOfInvalidValues: " << this->NumberOfInvalidValues << "\n";
+  os << indent << "NumberOfClampedNegativeValues: " << this->NumberOfClampedNegativeValues << "\n";
 }

@@ -7,8 +7,9 @@
  * Reads linear radiance through OpenImageIO and produces a vtkImageData with a 3-component
  * float "Radiance" array, VTK's row order (j = 0 is the bottom row, the nadir), ready for
  * vtkPathTracedVolumeMapper::SetEnvironmentMapConnection(). Grey images are expanded to
- * RGB, an alpha channel is dropped. Non-finite texels are reported; with
- * ReplaceNonFiniteValues on they are set to zero instead.
+ * RGB, an alpha channel is dropped. Negative texels (the undershoot of lossy EXR
+ * compression) are clamped to zero and counted. NaN or infinite texels make the read fail;
+ * with ReplaceNonFiniteValues on they are set to zero instead.
  */
 
 #ifndef vtkEnvironmentMapReader_h
@@ -34,17 +35,20 @@ public:
 
   ///@{
   /**
-   * Replace NaN, infinite and negative texels by zero (default off: they make the read fail).
+   * Replace NaN and infinite texels by zero (default off: they make the read fail).
    */
   vtkSetMacro(ReplaceNonFiniteValues, bool);
   vtkGetMacro(ReplaceNonFiniteValues, bool);
   vtkBooleanMacro(ReplaceNonFiniteValues, bool);
   ///@}
 
+  ///@{
   /**
-   * Number of non-finite or negative texels found by the last read.
+   * Non-finite values found, and negative values clamped to zero, by the last read.
    */
   vtkGetMacro(NumberOfInvalidValues, vtkIdType);
+  vtkGetMacro(NumberOfClampedNegativeValues, vtkIdType);
+  ///@}
 
 protected:
   vtkEnvironmentMapReader();
@@ -56,6 +60,7 @@ protected:
   char* FileName = nullptr;
   bool ReplaceNonFiniteValues = false;
   vtkIdType NumberOfInvalidValues = 0;
+  vtkIdType NumberOfClampedNegativeValues = 0;
 
 private:
   vtkEnvironmentMapReader(const vtkEnvironmentMapReader&) = delete;

@@ -85,6 +85,9 @@ struct RenderSettings
   bool UseRendererLights;
   double StepLengthFactor;
   int MacrocellSize;
+  int Cropping;
+  int CroppingRegionFlags;
+  double CroppingRegionPlanes[6];
 
   bool operator==(const RenderSettings& other) const
   {
@@ -641,6 +644,9 @@ RenderSettings CurrentSettings(vtkPathTracedVolumeMapper* self)
   settings.UseRendererLights = self->GetUseRendererLights();
   settings.StepLengthFactor = self->GetStepLengthFactor();
   settings.MacrocellSize = self->GetMacrocellSize();
+  settings.Cropping = self->GetCropping();
+  settings.CroppingRegionFlags = self->GetCroppingRegionFlags();
+  self->GetCroppingRegionPlanes(settings.CroppingRegionPlanes);
   return settings;
 }
 
@@ -890,8 +896,14 @@ void vtkPathTracedVolumeMapper::Render(vtkRenderer* renderer, vtkVolume* volume)
     return;
   }
   vtkCamera* camera = renderer->GetActiveCamera();
-  const double aspect = renderer->GetTiledAspectRatio();
+  double aspect = renderer->GetTiledAspectRatio();
   const bool stereo = window->GetStereoRender() != 0;
+  if (stereo && window->GetStereoType() == VTK_STEREO_SPLITVIEWPORT_HORIZONTAL)
+  {
+    // Each eye gets half of the viewport, as vtkOpenGLCamera sets it up.
+    width /= 2;
+    aspect /= 2.0;
+  }
   const int displayedEye = (stereo && !camera->GetLeftEye()) ? 1 : 0;
 
   auto eyeMatrices = [&](int leftEye, vtkMatrix4x4* view, vtkMatrix4x4* projection) {

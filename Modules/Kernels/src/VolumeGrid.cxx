@@ -68,8 +68,17 @@ void VolumeGrid::setGradientOpacity(const std::vector<float>& table, float maxim
 {
   if (table.size() < 2 || this->GradientMagnitude.empty())
   {
+    // The per-cell gradient-opacity bounds must go back to 1 with the factors.
+    const bool hadFactors = !this->GradientOpacityFactor.empty();
     this->GradientOpacityFactor.clear();
-    this->updateMajorants();
+    if (hadFactors)
+    {
+      this->updateCellRanges();
+    }
+    else
+    {
+      this->updateMajorants();
+    }
     return;
   }
   const long count = static_cast<long>(this->GradientMagnitude.size());

@@ -1,0 +1,134 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+//
+// Scene set-up shared by the holovolume application and the benchmark, so both render the
+// same views of the same data: the transfer-function preset for a T1 head MRI, the
+// environment orientation for RAS volumes, and the headset-like stereo eyes.
+#ifndef vtkHoloVolumeScene_h
+#define vtkHoloVolumeScene_h
+
+#include "vtkCamera.h"
+#include "vtkColorTransferFunction.h"
+#include "vtkImageData.h"
+#include "vtkMath.h"
+#include "vtkMatrix4x4.h"
+#include "vtkNew.h"
+#include "vtkPiecewiseFunction.h"
+#include "vtkVolumeProperty.h"
+
+#include <string>
+
+namespace holovolume
+{
+// Default inputs, from Debian packages (mricron-data, blender-data).
+inline const char* DefaultVolume()
+{
+  return "/usr/share/mricron/templates/ch2.nii.gz";
+}
+inline const char* DefaultEnvironment()
+{
+  return "/usr/share/blender/datafiles/studiolights/world/courtyard.exr";
+}
+
+// Transfer function for an 8-bit T1-weighted head MRI such as ch2 (MNI space, 1 mm):
+// background below ~25, scalp and skin from ~35 on, brain tissue 70-130. Opacity per 1 mm.
+inline void ApplyHeadMRIPreset(vtkVolumeProperty* property, double scalarMaximum = 255.0)
+{
+  const double s = scalarMaximum / 255.0;
+  vtkNew<vtkPiecewiseFunction> opacity;
+  opacity->AddPoint(0.0, 0.0);
+  opacity->AddPoint(28.0 * s, 0.0);
+  opacity->AddPoint(40.0 * s, 0.9);
+  opacity->AddPoint(255.0 * s, 0.98);
+  vtkNew<vtkColorTransferFunction> color;
+  color->AddRGBPoint(0.0, 0.80, 0.55, 0.45);
+  color->AddRGBPoint(45.0 * s, 0.85, 0.62, 0.52);
+  color->AddRGBPoint(90.0 * s, 0.92, 0.78, 0.70);
+  color->AddRGBPoint(140.0 * s, 0.97, 0.93, 0.88);
+  color->AddRGBPoint(255.0 * s, 1.0, 1.0, 1.0);
+  property->SetScalarOpacity(opacity);
+  property->SetColor(color);
+  property->SetScalarOpacityUnitDistance(1.0);
+  property->SetInterpolationTypeToLinear();
+  property->ShadeOn();
+  property->SetAmbient(0.15);
+  property->SetDiffuse(0.8);
+  property->SetSpecular(0.2);
+  property->SetSpecularPower(20.0);
+}
+
+// Maps the environment map's frame (+Y zenith) to a RAS world (+Z superior), with the
+// panorama's centre in front of the face (+Y anterior), turned by yawDegrees about +Z.
+inline void EnvironmentToRASWorld(vtkMatrix4x4* matrix, double yawDegrees)
+{
+  const double yaw = vtkMath::RadiansFromDegrees(yawDegrees);
+  const double c = std::cos(yaw), s = std::sin(yaw);
+  // Columns: images of the map's X, Y, Z axes. Map X -> world X, map Y -> world Z,
+  // map Z -> world -Y, then the yaw about world Z.
+  const double base[3][3] = { { 1, 0, 0 }, { 0, 0, -1 }, { 0, 1, 0 } };
+  matrix->Identity();
+  for (int row = 0; row < 3; ++row)
+  {
+    for (int column = 0; column < 3; ++column)
+    {
+      const double x = base[0][column], y = base[1][column];
+      const double rotated[3] = { c * x - s * y, s * x + c * y, base[2][column] };
+      matrix->SetElement(row, column, rotated[row]);
+    }
+  }
+}
+
+// A camera looking at the volume's centre from the front-left-above, head up (+Z), far
+// enough that the whole volume fits a view angle of 30 degrees.
+inline void FrameHead(vtkCamera* camera, vtkImageData* volume, double azimuthDegrees = 35.0)
+{
+  double bounds[6];
+  volume->GetBounds(bounds);
+  const double center[3] = { 0.5 * (bounds[0] + bounds[1]), 0.5 * (bounds[2] + bounds[3]),
+    0.5 * (bounds[4] + bounds[5]) };
+  const double radius = 0.5 *
+    std::sqrt((bounds[1] - bounds[0]) * (bounds[1] - bounds[0]) + (bounds[3] - bounds[2]) * (bounds[3] - bounds[2]) +
+      (bounds[5] - bounds[4]) * (bounds[5] - bounds[4]));
+  const double distance = radius / std::sin(vtkMath::RadiansFromDegrees(15.0));
+  const double azimuth = vtkMath::RadiansFromDegrees(azimuthDegrees);
+  const double elevation = vtkMath::RadiansFromDegrees(12.0);
+  camera->SetFocalPoint(center);
+  camera->SetPosition(center[0] + distance * std::cos(elevation) * std::sin(azimuth),
+    center[1] + distance * std::cos(elevation) * std::cos(azimuth), center[2] + distance * std::sin(elevation));
+  camera->SetViewUp(0, 0, 1);
+  camera->SetViewAngle(30.0);
+  camera->SetClippingRange(distance - 1.5 * radius > 1.0 ? distance - 1.5 * radius : 1.0, distance + 1.5 * radius);
+}
+
+// Per-eye view and projection of a stereo pair around `camera`: eyes separated by the
+// interpupillary distance along the camera's right axis, parallel view directions and
+// off-axis frustums converging on the focal plane, the way a headset renders.
+inline void StereoEyeMatrices(vtkCamera* camera, double aspect, double interpupillaryDistance, int eye,
+  vtkMatrix4x4* view, vtkMatrix4x4* projection)
+{
+  vtkNew<vtkCamera> eyeCamera;
+  eyeCamera->DeepCopy(camera);
+  double right[3], direction[3];
+  camera->GetDirectionOfProjection(direction);
+  vtkMath::Cross(direction, camera->GetViewUp(), right);
+  vtkMath::Normalize(right);
+  const double offset = (eye == 0 ? -0.5 : 0.5) * interpupillaryDistance;
+  double position[3], focal[3];
+  camera->GetPosition(position);
+  camera->GetFocalPoint(focal);
+  for (int i = 0; i < 3; ++i)
+  {
+    position[i] += offset * right[i];
+    focal[i] += offset * right[i];
+  }
+  eyeCamera->SetPosition(position);
+  eyeCamera->SetFocalPoint(focal);
+  // Shift the window so both frustums meet on the focal plane (zero parallax there).
+  const double halfHeight = std::tan(vtkMath::RadiansFromDegrees(camera->GetViewAngle()) / 2.0) * camera->GetDistance();
+  eyeCamera->SetWindowCenter(-offset / (halfHeight * aspect), 0.0);
+  view->DeepCopy(eyeCamera->GetModelViewTransformMatrix());
+  projection->DeepCopy(eyeCamera->GetProjectionTransformMatrix(aspect, -1, 1));
+}
+}
+
+#endif

@@ -1,0 +1,158 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+//
+// Progressive rendering: frames accumulate while nothing changes and the error against a
+// high-sample reference falls; a change of camera, transfer function, environment or lights
+// restarts the accumulation, a display-only change (exposure) does not. Progress events
+// rise monotonically to 1 and the frame index counts every frame.
+#include "PathTracingTestScene.h"
+
+#include "vtkCallbackCommand.h"
+#include "vtkCommand.h"
+#include "vtkFloatArray.h"
+
+#include <iostream>
+#include <vector>
+
+namespace
+{
+struct ProgressLog
+{
+  std::vector<double> Values;
+  int Starts = 0;
+  int Ends = 0;
+};
+
+void OnEvent(vtkObject* caller, unsigned long event, void* clientData, void*)
+{
+  auto* log = static_cast<ProgressLog*>(clientData);
+  if (event == vtkCommand::ProgressEvent)
+  {
+    log->Values.push_back(static_cast<vtkAlgorithm*>(caller)->GetProgress());
+  }
+  else if (event == vtkCommand::StartEvent)
+  {
+    ++log->Starts;
+  }
+  else if (event == vtkCommand::EndEvent)
+  {
+    ++log->Ends;
+  }
+}
+
+std::vector<float> Radiance(vtkPathTracedVolumeMapper* mapper)
+{
+  auto* array = vtkFloatArray::SafeDownCast(mapper->GetEyeOutput(0)->GetPointData()->GetArray("Radiance"));
+  return std::vector<float>(array->GetPointer(0), array->GetPointer(0) + array->GetNumberOfValues());
+}
+
+double RootMeanSquareError(const std::vector<float>& a, const std::vector<float>& b)
+{
+  double sum = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i)
+  {
+    sum += (a[i] - b[i]) * (a[i] - b[i]);
+  }
+  return std::sqrt(sum / a.size());
+}
+}
+
+int TestPathTracedAccumulation(int, char*[])
+{
+  const int size = 48;
+  int failures = 0;
+  auto expect = [&](bool condition, const char* what) {
+    if (!condition)
+    {
+      std::cerr << "FAILED: " << what << "\n";
+      ++failures;
+    }
+  };
+
+  // Reference: one frame of many samples.
+  pathtracingtest::OffscreenScene reference;
+  reference.Mapper->SetSamplesPerPixel(256);
+  reference.Mapper->SetSeed(1000);
+  reference.Mapper->RenderEye(reference.Volume, 0, reference.View[0], reference.Projection[0], size, size);
+  const std::vector<float> converged = Radiance(reference.Mapper);
+
+  pathtracingtest::OffscreenScene scene;
+  ProgressLog log;
+  vtkNew<vtkCallbackCommand> callback;
+  callback->SetCallback(OnEvent);
+  callback->SetClientData(&log);
+  scene.Mapper->AddObserver(vtkCommand::ProgressEvent, callback);
+  scene.Mapper->AddObserver(vtkCommand::StartEvent, callback);
+  scene.Mapper->AddObserver(vtkCommand::EndEvent, callback);
+  auto render = [&]() {
+    return scene.Mapper->RenderEye(scene.Volume, 0, scene.View[0], scene.Projection[0], size, size);
+  };
+
+  std::vector<double> errors;
+  for (int frame = 1; frame <= 16; ++frame)
+  {
+    render();
+    expect(scene.Mapper->GetAccumulatedFrames(0) == frame, "accumulated frames count up while nothing changes");
+    if (frame == 1 || frame == 4 || frame == 16)
+    {
+      errors.push_back(RootMeanSquareError(Radiance(scene.Mapper), converged));
+    }
+  }
+  std::cout << "RMSE after 1, 4, 16 frames: " << errors[0] << " " << errors[1] << " " << errors[2] << "\n";
+  // Monte-Carlo error falls as 1/sqrt(frames): 16 frames should at least halve it twice over
+  // (ratio 4 ideal; 2.5 leaves room for the reference's own noise).
+  expect(errors[0] / errors[2] > 2.5, "error falls with accumulated frames");
+  expect(scene.Mapper->GetFrameIndex() == 16, "the frame index counts rendered frames");
+
+  // Progress events: monotone within each frame, ending at 1.
+  bool monotone = true;
+  for (std::size_t i = 1; i < log.Values.size(); ++i)
+  {
+    if (log.Values[i] < log.Values[i - 1] && log.Values[i] != 0.0)
+    {
+      monotone = false;
+    }
+  }
+  expect(!log.Values.empty() && log.Values.back() == 1.0 && monotone, "progress rises to 1");
+  expect(log.Starts == 16 && log.Ends == 16, "one StartEvent and one EndEvent per frame");
+
+  // Display-only changes keep the accumulation.
+  scene.Mapper->SetExposure(1.5);
+  render();
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 17, "changing the exposure keeps accumulating");
+
+  // Camera change restarts.
+  render();
+  scene.View[0]->SetElement(0, 3, scene.View[0]->GetElement(0, 3) + 0.5);
+  render();
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "a camera change restarts the accumulation");
+
+  // Transfer-function change restarts.
+  render();
+  scene.Property->GetScalarOpacity()->AddPoint(1500, 0.5);
+  render();
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "a transfer-function change restarts the accumulation");
+
+  // Environment change restarts.
+  render();
+  scene.Mapper->SetEnvironmentMapData(pathtracingtest::MakeSky(64, 800));
+  render();
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "a new environment restarts the accumulation");
+
+  // Rendering setting change restarts; explicit reset too.
+  render();
+  scene.Mapper->SetAnisotropy(0.5);
+  render();
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "a new anisotropy restarts the accumulation");
+  render();
+  scene.Mapper->ResetAccumulation();
+  render();
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "ResetAccumulation restarts");
+
+  // Without progressive accumulation every frame stands alone.
+  scene.Mapper->ProgressiveAccumulationOff();
+  render();
+  render();
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "no accumulation when ProgressiveAccumulation is off");
+  return failures == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
+}

@@ -1,0 +1,12 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+//
+// Baseline image of the GradientPhong illumination model on the synthetic test scene.
+// Threshold 0.15 (VTK's default): the image is seeded and bit-reproducible on the CPU; the
+// threshold covers only the OpenGL drawing of the final quad.
+#include "PathTracingTestScene.h"
+
+int TestPathTracedModelGradientPhong(int argc, char* argv[])
+{
+  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::GRADIENT_PHONG, 4, false);
+}
