@@ -253,7 +253,8 @@ public:
 
   ///@{
   /**
-   * Edge length in voxels of the macrocells of the majorant grid (default 8).
+   * Edge length in voxels of the macrocells of the majorant grid (default 4: on the ch2 head
+   * MRI 4 renders about 10 % faster than 8 and 35 % faster than 16).
    */
   vtkSetClampMacro(MacrocellSize, int, 2, 64);
   vtkGetMacro(MacrocellSize, int);
@@ -339,7 +340,7 @@ protected:
   bool EnvironmentImportanceSampling = true;
   bool UseRendererLights = true;
   double StepLengthFactor = 0.5;
-  int MacrocellSize = 8;
+  int MacrocellSize = 4;
   double Exposure = 0.0;
   int ToneMapping = TONE_MAPPING_ACES;
 

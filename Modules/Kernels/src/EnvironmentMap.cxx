@@ -2,6 +2,7 @@
 // Copyright (c) 2026 the HoloVolume developers.
 #include "hv/EnvironmentMap.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -107,11 +108,15 @@ std::string EnvironmentMap::setRadiance(int width, int height, std::vector<float
   this->Height = height;
   this->Radiance = std::move(rgb);
 
-  std::vector<float> weight(static_cast<std::size_t>(width) * height);
-  for (int i = 0; i < 9; ++i)
-  {
-    this->SH[i] = glm::vec3(0.0f);
-  }
+  // The sampling distribution lives on blocks of texels, at most 256 wide: its CDFs then stay
+  // in cache, which matters more than sub-block precision (a sun of a few texels still gets
+  // its block's probability; within a block directions are uniform in (u, v), and the pdf
+  // below accounts for exactly that, so the estimator stays unbiased).
+  const int block = std::max(1, width / 256);
+  const int blocksWide = (width + block - 1) / block;
+  const int blocksHigh = (height + block - 1) / block;
+  std::vector<double> blockWeight(static_cast<std::size_t>(blocksWide) * blocksHigh, 0.0);
+  std::vector<int> blockCount(blockWeight.size(), 0);
   const double texelSolidAngleNoSin = (2.0 * Pi / width) * (Pi / height);
   std::vector<glm::dvec3> sh(9, glm::dvec3(0.0));
   for (int row = 0; row < height; ++row)
@@ -123,7 +128,9 @@ std::string EnvironmentMap::setRadiance(int width, int height, std::vector<float
       const std::size_t texel = static_cast<std::size_t>(row) * width + column;
       const glm::vec3 radiance(this->Radiance[3 * texel], this->Radiance[3 * texel + 1], this->Radiance[3 * texel + 2]);
       // Importance weight luminance * sin(theta): the Jacobian of the lat-long mapping.
-      weight[texel] = luminance(radiance) * sinTheta;
+      const std::size_t target = static_cast<std::size_t>(row / block) * blocksWide + column / block;
+      blockWeight[target] += luminance(radiance) * sinTheta;
+      ++blockCount[target];
       float basis[9];
       evaluateSHBasis(equirectangularToDirection(glm::vec2((column + 0.5f) / width, v)), basis);
       for (int i = 0; i < 9; ++i)
@@ -136,7 +143,12 @@ std::string EnvironmentMap::setRadiance(int width, int height, std::vector<float
   {
     this->SH[i] = glm::vec3(sh[i]);
   }
-  this->Distribution.build(width, height, std::move(weight));
+  std::vector<float> weight(blockWeight.size());
+  for (std::size_t i = 0; i < weight.size(); ++i)
+  {
+    weight[i] = static_cast<float>(blockWeight[i] / std::max(blockCount[i], 1));
+  }
+  this->Distribution.build(blocksWide, blocksHigh, std::move(weight));
   return std::string();
 }
 

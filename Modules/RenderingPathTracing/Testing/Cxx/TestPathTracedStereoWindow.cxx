@@ -8,5 +8,5 @@
 
 int TestPathTracedStereoWindow(int argc, char* argv[])
 {
-  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::PATH_TRACED, 16, true);
+  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::PATH_TRACED, 32, true);
 }

@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# Installs what HoloVolume needs from Debian 12 (when missing) and builds it.
+# Sourced by holovolume.sh and test.sh; usable alone. The build goes to build/ or to
+# $HOLOVOLUME_BUILD_DIR.
+set -euo pipefail
+
+HOLOVOLUME_SOURCE_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+HOLOVOLUME_BUILD_DIR="${HOLOVOLUME_BUILD_DIR:-$HOLOVOLUME_SOURCE_DIR/build}"
+
+# Build tools, VTK 9.1 with Python, the libraries the modules use, the test tools, and the
+# real data: the ch2 head MRI (mricron-data) and CC0 HDR panoramas (blender-data).
+HOLOVOLUME_PACKAGES=(
+  build-essential cmake ninja-build pkg-config
+  libvtk9-dev python3-vtk9 libtbb-dev
+  libglm-dev libopencv-dev libopenexr-dev libopenimageio-dev openimageio-tools
+  libgtest-dev libgmock-dev libbenchmark-dev
+  xvfb xauth libgl1-mesa-dri
+  mricron-data blender-data
+)
+
+holovolume_install_dependencies() {
+  local missing=()
+  local package
+  for package in "${HOLOVOLUME_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$package" 2>/dev/null | grep -q "install ok installed" || missing+=("$package")
+  done
+  if [ "${#missing[@]}" -eq 0 ]; then
+    return 0
+  fi
+  echo "HoloVolume: installing ${missing[*]}"
+  local sudo=""
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null || { echo "HoloVolume: run as root or install sudo to install packages" >&2; exit 1; }
+    sudo="sudo"
+  fi
+  $sudo apt-get update -q
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q --no-install-recommends "${missing[@]}"
+}
+
+holovolume_build() {
+  local extra=("$@")
+  mkdir -p "$HOLOVOLUME_BUILD_DIR"
+  # nvcc is found on PATH or in the usual CUDA prefix; without it the CUDA compile check is skipped.
+  if ! command -v nvcc >/dev/null && [ -x /usr/local/cuda/bin/nvcc ]; then
+    export PATH="/usr/local/cuda/bin:$PATH"
+  fi
+  cmake -S "$HOLOVOLUME_SOURCE_DIR" -B "$HOLOVOLUME_BUILD_DIR" -G Ninja \
+    -DCMAKE_BUILD_TYPE=Release \
+    -DPython3_EXECUTABLE=/usr/bin/python3 \
+    -DHOLOVOLUME_WARNINGS_AS_ERRORS=ON \
+    "${extra[@]}" >"$HOLOVOLUME_BUILD_DIR/configure.log" 2>&1 ||
+    { cat "$HOLOVOLUME_BUILD_DIR/configure.log"; exit 1; }
+  cmake --build "$HOLOVOLUME_BUILD_DIR" --parallel "$(nproc)"
+}
+
+if [ "${BASH_SOURCE[0]}" = "$0" ]; then
+  holovolume_install_dependencies
+  mkdir -p "$HOLOVOLUME_BUILD_DIR"
+  holovolume_build
+fi

@@ -1,0 +1,11 @@
+#!/usr/bin/env bash
+# Builds HoloVolume (warnings as errors) and runs the whole test suite under Xvfb:
+# GoogleTest kernel tests, VTK baseline-image and behaviour tests, Python tests, application
+# tests. Installs what is missing on first use. Extra arguments go to ctest.
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
+holovolume_install_dependencies
+mkdir -p "$HOLOVOLUME_BUILD_DIR"
+holovolume_build
+cd "$HOLOVOLUME_BUILD_DIR"
+xvfb-run -a -s "-screen 0 1920x1080x24" ctest --output-on-failure --parallel "$(nproc)" "$@"
