@@ -906,50 +906,25 @@ void vtkPathTracedVolumeMapper::Render(vtkRenderer* renderer, vtkVolume* volume)
   }
   const int displayedEye = (stereo && !camera->GetLeftEye()) ? 1 : 0;
 
-  auto eyeMatrices = [&](int leftEye, vtkMatrix4x4* view, vtkMatrix4x4* projection) {
-    const int saved = camera->GetLeftEye();
-    camera->SetLeftEye(leftEye);
-    view->DeepCopy(camera->GetModelViewTransformMatrix());
-    projection->DeepCopy(camera->GetProjectionTransformMatrix(aspect, -1, 1));
-    camera->SetLeftEye(saved);
-  };
-
+  // Each stereo pass renders the eye VTK has set the camera up for (vtkCamera applies the
+  // eye offset), so every stereo mode of vtkRenderWindow works; both eyes share a frame index,
+  // which advances after the right eye.
   auto& internals = *this->Internals;
-  const bool haveCurrentRight = internals.Eyes[1].Valid && internals.Eyes[1].RenderedFrame + 1 == this->FrameIndex;
-  if (displayedEye == 0 || !haveCurrentRight)
+  hv::SceneView scene;
+  if (!this->PrepareScene(volume, renderer->GetLights(), scene))
   {
-    hv::SceneView scene;
-    if (!this->PrepareScene(volume, renderer->GetLights(), scene))
-    {
-      return;
-    }
-    vtkNew<vtkMatrix4x4> view[2];
-    vtkNew<vtkMatrix4x4> projection[2];
-    hv::EyeView views[2];
-    int eyes[2] = { 0, 1 };
-    int eyeCount = 1;
-    if (stereo)
-    {
-      // Both eyes of a stereo frame are rendered together, in the left-eye pass.
-      eyeMatrices(1, view[0], projection[0]);
-      eyeMatrices(0, view[1], projection[1]);
-      views[0] = MakeEyeView(view[0], projection[0], width, height);
-      views[1] = MakeEyeView(view[1], projection[1], width, height);
-      eyeCount = 2;
-      if (displayedEye == 1)
-      {
-        eyes[0] = 1;
-        views[0] = views[1];
-        eyeCount = 1;
-      }
-    }
-    else
-    {
-      view[0]->DeepCopy(camera->GetModelViewTransformMatrix());
-      projection[0]->DeepCopy(camera->GetProjectionTransformMatrix(aspect, -1, 1));
-      views[0] = MakeEyeView(view[0], projection[0], width, height);
-    }
-    this->RenderEyes(scene, eyes, views, eyeCount, this->FrameIndex++);
+    return;
+  }
+  vtkNew<vtkMatrix4x4> view;
+  vtkNew<vtkMatrix4x4> projection;
+  view->DeepCopy(camera->GetModelViewTransformMatrix());
+  projection->DeepCopy(camera->GetProjectionTransformMatrix(aspect, -1, 1));
+  const hv::EyeView eyeView = MakeEyeView(view, projection, width, height);
+  const bool lastPassOfFrame = !stereo || displayedEye == 1 || window->GetStereoType() == VTK_STEREO_LEFT;
+  this->RenderEyes(scene, &displayedEye, &eyeView, 1, this->FrameIndex);
+  if (lastPassOfFrame)
+  {
+    ++this->FrameIndex;
   }
 
   vtkImageData* image = internals.Eyes[displayedEye].Output;

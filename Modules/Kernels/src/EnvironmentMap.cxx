@@ -112,7 +112,13 @@ std::string EnvironmentMap::setRadiance(int width, int height, std::vector<float
   // in cache, which matters more than sub-block precision (a sun of a few texels still gets
   // its block's probability; within a block directions are uniform in (u, v), and the pdf
   // below accounts for exactly that, so the estimator stays unbiased).
-  const int block = std::max(1, width / 256);
+  // Blocks must tile the map exactly: a partial block at the border would be sampled over
+  // the full block's (u, v) area but hold fewer texels, which biases the estimator.
+  int block = std::max(1, width / 256);
+  while (block > 1 && (width % block != 0 || height % block != 0))
+  {
+    --block;
+  }
   const int blocksWide = (width + block - 1) / block;
   const int blocksHigh = (height + block - 1) / block;
   std::vector<double> blockWeight(static_cast<std::size_t>(blocksWide) * blocksHigh, 0.0);

@@ -210,7 +210,8 @@ inline double BaselinePSNR(int argc, char* argv[], vtkRenderWindow* window)
 // Renders the test scene into a window with one illumination model and compares it with
 // the baseline. The path tracer is seeded, so the image is the same on every run; the
 // threshold only absorbs rasterisation differences between OpenGL implementations.
-inline int RunModelBaseline(int argc, char* argv[], int model, int samplesPerPixel, bool stereo)
+// stereoType is 0 for a mono window, otherwise a VTK_STEREO_* type.
+inline int RunModelBaseline(int argc, char* argv[], int model, int samplesPerPixel, int stereoType)
 {
   vtkNew<vtkPathTracedVolumeMapper> mapper;
   mapper->SetInputData(MakeVolume());
@@ -231,10 +232,18 @@ inline int RunModelBaseline(int argc, char* argv[], int model, int samplesPerPix
   vtkNew<vtkRenderWindow> window;
   window->SetMultiSamples(0);
   window->AddRenderer(renderer);
-  if (stereo)
+  if (stereoType == VTK_STEREO_SPLITVIEWPORT_HORIZONTAL)
   {
     window->SetSize(300, 150);
-    window->SetStereoTypeToSplitViewportHorizontal();
+    window->SetStereoType(stereoType);
+    window->StereoCapableWindowOn();
+    window->StereoRenderOn();
+    renderer->GetActiveCamera()->SetEyeAngle(6.0);
+  }
+  else if (stereoType != 0)
+  {
+    window->SetSize(200, 200);
+    window->SetStereoType(stereoType);
     window->StereoCapableWindowOn();
     window->StereoRenderOn();
     renderer->GetActiveCamera()->SetEyeAngle(6.0);

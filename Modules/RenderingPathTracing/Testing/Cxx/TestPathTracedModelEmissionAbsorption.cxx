@@ -8,5 +8,5 @@
 
 int TestPathTracedModelEmissionAbsorption(int argc, char* argv[])
 {
-  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::EMISSION_ABSORPTION, 4, false);
+  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::EMISSION_ABSORPTION, 4, 0);
 }

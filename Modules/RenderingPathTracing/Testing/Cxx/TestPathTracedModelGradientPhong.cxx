@@ -8,5 +8,5 @@
 
 int TestPathTracedModelGradientPhong(int argc, char* argv[])
 {
-  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::GRADIENT_PHONG, 4, false);
+  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::GRADIENT_PHONG, 4, 0);
 }

@@ -8,5 +8,5 @@
 
 int TestPathTracedModelPathTraced(int argc, char* argv[])
 {
-  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::PATH_TRACED, 32, false);
+  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::PATH_TRACED, 32, 0);
 }

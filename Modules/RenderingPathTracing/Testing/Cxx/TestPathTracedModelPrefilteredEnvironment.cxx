@@ -8,5 +8,5 @@
 
 int TestPathTracedModelPrefilteredEnvironment(int argc, char* argv[])
 {
-  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::PREFILTERED_ENVIRONMENT, 4, false);
+  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::PREFILTERED_ENVIRONMENT, 4, 0);
 }
