@@ -496,8 +496,10 @@ TEST(EnvironmentMap, LargeMapBlocksDivideTheMap)
   checkLargeMap(1024, 512);
 }
 
-// 3x3-texel blocks that do not divide 1000 or 500 (334 x 167 blocks): the distribution's
-// blocks, uniform in (u, v), must still hold the weights of the texels they cover.
+// width / 256 = 3 divides neither 1000 nor 500: whatever blocks are used, each block of the
+// distribution (uniform in (u, v)) must hold the weight of exactly the texels it covers.
+// With 3-texel blocks (334 x 167, the last ones partial) the weights drift away from their
+// texels, and the sun's weight lands beside it: unbiased, but only a 2.8x variance reduction.
 TEST(EnvironmentMap, LargeMapBlocksDoNotDivideTheMap)
 {
   checkLargeMap(1000, 500);

@@ -52,15 +52,26 @@ void VolumeGrid::setIndexToWorld(const glm::mat4& indexToWorld)
 void VolumeGrid::setTransferFunction(const std::vector<float>& opacity, const std::vector<float>& albedoRGB,
   float unitDistance, float densityScale)
 {
-  const std::size_t n = opacity.size();
+  // The lookups interpolate between two table entries: a single entry means a constant.
+  const std::size_t n = std::max<std::size_t>(opacity.size(), 2);
   this->Extinction.resize(n);
   for (std::size_t i = 0; i < n; ++i)
   {
     // An opacity of exactly 1 would mean infinite extinction; cap it at 1 - 1e-6.
-    const float alpha = std::min(std::max(opacity[i], 0.0f), 1.0f - 1e-6f);
+    const float value = opacity.empty() ? 0.0f : opacity[std::min(i, opacity.size() - 1)];
+    const float alpha = std::min(std::max(value, 0.0f), 1.0f - 1e-6f);
     this->Extinction[i] = -std::log1p(-alpha) / unitDistance * densityScale;
   }
   this->Albedo = albedoRGB;
+  while (this->Albedo.size() < 3 * n)
+  {
+    // Repeat the last colour (white when none is given).
+    const std::size_t last = this->Albedo.size();
+    for (int c = 0; c < 3; ++c)
+    {
+      this->Albedo.push_back(last >= 3 ? this->Albedo[last - 3 + c] : 1.0f);
+    }
+  }
   this->updateMajorants();
 }
 

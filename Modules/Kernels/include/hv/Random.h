@@ -46,9 +46,11 @@ HV_FUNCTION Pcg32 makePixelRng(
   std::uint32_t pixelIndex, std::uint32_t frameIndex, std::uint32_t eye, std::uint64_t seed)
 {
   Pcg32 rng;
-  const std::uint64_t key = mix64(seed ^ mix64((static_cast<std::uint64_t>(frameIndex) << 32) |
-                                               (static_cast<std::uint64_t>(eye) << 31) |
-                                               pixelIndex));
+  // Pixel and frame fill one 64-bit word; the eye is hashed on its own so no eye index can
+  // alias another frame or pixel.
+  const std::uint64_t key =
+    mix64(seed ^ mix64((static_cast<std::uint64_t>(frameIndex) << 32) | pixelIndex) ^
+      mix64(0x5851f42d4c957f2dULL + eye));
   rng.increment = (mix64(key + 0x9e3779b97f4a7c15ULL) << 1u) | 1u;
   rng.state = 0u;
   rng.nextUInt();

@@ -216,14 +216,19 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
     {
       break;
     }
-    if (scatterEvents + 1 >= scene.rouletteStartBounce)
+    // Russian roulette only once the throughput has fallen below one (Pharr et al., PBR 3rd
+    // ed., Sec. 14.5.1): surviving paths are re-weighted by 1 / (1 - q), so a path never gains
+    // weight beyond one and thick, high-albedo media do not grow heavy-tailed fireflies;
+    // MaximumBounces bounds the rest.
+    const float maximumThroughput = glm::max(throughput.x, glm::max(throughput.y, throughput.z));
+    if (scatterEvents + 1 >= scene.rouletteStartBounce && maximumThroughput < 1.0f)
     {
-      const float survival = glm::min(glm::max(throughput.x, glm::max(throughput.y, throughput.z)), 0.95f);
-      if (rng.nextFloat() >= survival)
+      const float terminate = glm::max(0.05f, 1.0f - maximumThroughput);
+      if (rng.nextFloat() < terminate)
       {
         break;
       }
-      throughput /= survival;
+      throughput /= 1.0f - terminate;
     }
     origin = position;
     direction = next;

@@ -91,15 +91,21 @@ struct VolumeView
     const glm::vec3 q = glm::clamp(p, glm::vec3(0.0f), glm::vec3(this->dims - 1));
     const glm::ivec3 base = glm::min(glm::ivec3(q), glm::max(this->dims - 2, glm::ivec3(0)));
     const glm::vec3 w = q - glm::vec3(base);
-    const int i = base.x, j = base.y, k = base.z;
-    const int i1 = glm::min(i + 1, this->dims.x - 1);
-    const int j1 = glm::min(j + 1, this->dims.y - 1);
-    const int k1 = glm::min(k + 1, this->dims.z - 1);
-    const float c00 = glm::mix(field[this->voxelIndex(i, j, k)], field[this->voxelIndex(i1, j, k)], w.x);
-    const float c10 = glm::mix(field[this->voxelIndex(i, j1, k)], field[this->voxelIndex(i1, j1, k)], w.x);
-    const float c01 = glm::mix(field[this->voxelIndex(i, j, k1)], field[this->voxelIndex(i1, j, k1)], w.x);
-    const float c11 = glm::mix(field[this->voxelIndex(i, j1, k1)], field[this->voxelIndex(i1, j1, k1)], w.x);
-    return glm::mix(glm::mix(c00, c10, w.y), glm::mix(c01, c11, w.y), w.z);
+    // One base index and three strides instead of eight index computations; a stride is
+    // zero along an axis with a single sample.
+    const long strideY = this->dims.x;
+    const long strideZ = static_cast<long>(this->dims.x) * this->dims.y;
+    const long dx = this->dims.x > 1 ? 1 : 0;
+    const long dy = this->dims.y > 1 ? strideY : 0;
+    const long dz = this->dims.z > 1 ? strideZ : 0;
+    const float* c = field + (base.z * strideZ + base.y * strideY + base.x);
+    const float c00 = c[0] + w.x * (c[dx] - c[0]);
+    const float c10 = c[dy] + w.x * (c[dy + dx] - c[dy]);
+    const float c01 = c[dz] + w.x * (c[dz + dx] - c[dz]);
+    const float c11 = c[dz + dy] + w.x * (c[dz + dy + dx] - c[dz + dy]);
+    const float c0 = c00 + w.y * (c10 - c00);
+    const float c1 = c01 + w.y * (c11 - c01);
+    return c0 + w.z * (c1 - c0);
   }
 
   HV_FUNCTION bool isCropped(const glm::vec3& p) const
