@@ -749,6 +749,12 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
     const int frames = state.AccumulatedFrames + 1;
     const float inverseFrames = 1.0f / static_cast<float>(frames);
     float* sum = state.RadianceSum.data();
+    // Pixels whose rays cannot meet the occupied volume get an empty sample directly.
+    int rectangle[4] = { 0, 0, view.width, view.height };
+    if (!scene.environmentVisible)
+    {
+      hv::occupiedScreenRectangle(scene.volume, view, rectangle[0], rectangle[1], rectangle[2], rectangle[3]);
+    }
     const int bandHeight = (view.height + bandsPerEye - 1) / bandsPerEye;
     for (int band = 0; band < bandsPerEye; ++band)
     {
@@ -760,8 +766,12 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
           for (int x = 0; x < view.width; ++x)
           {
             const vtkIdType pixel = y * view.width + x;
-            const hv::PixelResult r = hv::renderPixel(scene, view, x, static_cast<int>(y),
-              static_cast<std::uint32_t>(eyeIndex), frameIndex, seed, samplesPerPixel);
+            const bool inside =
+              x >= rectangle[0] && x < rectangle[2] && y >= rectangle[1] && y < rectangle[3];
+            const hv::PixelResult r = inside
+              ? hv::renderPixel(scene, view, x, static_cast<int>(y), static_cast<std::uint32_t>(eyeIndex),
+                  frameIndex, seed, samplesPerPixel)
+              : hv::PixelResult();
             for (int c = 0; c < 4; ++c)
             {
               sum[4 * pixel + c] += r.radiance[c];

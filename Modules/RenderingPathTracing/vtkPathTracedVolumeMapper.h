@@ -340,7 +340,7 @@ protected:
   bool EnvironmentImportanceSampling = true;
   bool UseRendererLights = true;
   double StepLengthFactor = 0.5;
-  int MacrocellSize = 4;
+  int MacrocellSize = 2;
   double Exposure = 0.0;
   int ToneMapping = TONE_MAPPING_ACES;
 

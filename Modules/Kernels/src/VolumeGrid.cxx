@@ -7,10 +7,15 @@
 
 namespace hv
 {
-void VolumeGrid::setScalars(const glm::ivec3& dims, std::vector<float> normalizedScalars)
+void VolumeGrid::setScalars(const glm::ivec3& dims, const std::vector<float>& normalizedScalars)
 {
   this->Dims = dims;
-  this->Scalars = std::move(normalizedScalars);
+  this->Scalars.resize(normalizedScalars.size());
+  for (std::size_t i = 0; i < normalizedScalars.size(); ++i)
+  {
+    const float clamped = std::min(std::max(normalizedScalars[i], 0.0f), 1.0f);
+    this->Scalars[i] = static_cast<std::uint16_t>(clamped * 65535.0f + 0.5f);
+  }
   this->GradientOpacityFactor.clear();
   this->GradientMagnitude.clear();
   this->updateCellRanges();
@@ -40,7 +45,8 @@ void VolumeGrid::setIndexToWorld(const glm::mat4& indexToWorld)
         const glm::vec3 indexGradient(0.5f * (v.voxel(v.scalar, i + 1, j, k) - v.voxel(v.scalar, i - 1, j, k)),
           0.5f * (v.voxel(v.scalar, i, j + 1, k) - v.voxel(v.scalar, i, j - 1, k)),
           0.5f * (v.voxel(v.scalar, i, j, k + 1) - v.voxel(v.scalar, i, j, k - 1)));
-        const float magnitude = glm::length(v.gradientToWorld * indexGradient);
+        // In quanta; the gradient of the normalised scalar is ScalarQuantum times this.
+        const float magnitude = glm::length(v.gradientToWorld * indexGradient) * ScalarQuantum;
         this->GradientMagnitude[v.voxelIndex(i, j, k)] = magnitude;
         maximum = std::max(maximum, magnitude);
       }
@@ -155,8 +161,9 @@ void VolumeGrid::updateCellRanges()
             for (int i = cx * s; i <= std::min((cx + 1) * s, this->Dims.x - 1); ++i)
             {
               const long index = v.voxelIndex(i, j, k);
-              low = std::min(low, this->Scalars[index]);
-              high = std::max(high, this->Scalars[index]);
+              const float value = this->Scalars[index] * ScalarQuantum;
+              low = std::min(low, value);
+              high = std::max(high, value);
               if (!this->GradientOpacityFactor.empty())
               {
                 gradientHigh = std::max(gradientHigh, this->GradientOpacityFactor[index]);
@@ -183,6 +190,7 @@ void VolumeGrid::updateMajorants()
   const int n = static_cast<int>(this->Extinction.size());
   if (n < 2)
   {
+    this->updateEmptyDistance();
     return;
   }
   for (long cell = 0; cell < cellCount; ++cell)
@@ -204,6 +212,89 @@ void VolumeGrid::updateMajorants()
     }
     // A 0.1 % margin absorbs float rounding in the interpolation.
     this->Majorant[cell] = maximum * this->CellGradientOpacityHigh[cell] * 1.001f;
+  }
+  this->updateEmptyDistance();
+}
+
+void VolumeGrid::updateEmptyDistance()
+{
+  // Chebyshev (chessboard) distance transform of the empty cells in two raster passes over
+  // the 26-neighbourhood (Rosenfeld and Pfaltz 1966), exact for this metric.
+  const glm::ivec3 n = this->CellDims;
+  const long count = static_cast<long>(n.x) * n.y * n.z;
+  std::vector<int> distance(count);
+  for (long i = 0; i < count; ++i)
+  {
+    distance[i] = this->Majorant[i] > 0.0f ? 0 : 255;
+  }
+  auto index = [&](int x, int y, int z) { return (static_cast<long>(z) * n.y + y) * n.x + x; };
+  glm::ivec3 lowCell(n), highCell(-1);
+  for (int z = 0; z < n.z; ++z)
+  {
+    for (int y = 0; y < n.y; ++y)
+    {
+      for (int x = 0; x < n.x; ++x)
+      {
+        if (this->Majorant[index(x, y, z)] > 0.0f)
+        {
+          lowCell = glm::min(lowCell, glm::ivec3(x, y, z));
+          highCell = glm::max(highCell, glm::ivec3(x, y, z));
+        }
+      }
+    }
+  }
+  if (highCell.x >= 0)
+  {
+    // Cell c covers index positions [c s, (c + 1) s].
+    this->OccupiedLow = glm::vec3(lowCell * this->CellSize);
+    this->OccupiedHigh = glm::min(glm::vec3((highCell + 1) * this->CellSize), glm::vec3(this->Dims - 1));
+  }
+  else
+  {
+    this->OccupiedLow = glm::vec3(0.0f);
+    this->OccupiedHigh = glm::vec3(-1.0f);
+  }
+  for (int pass = 0; pass < 2; ++pass)
+  {
+    const int sign = pass == 0 ? 1 : -1;
+    for (int zz = 0; zz < n.z; ++zz)
+    {
+      const int z = pass == 0 ? zz : n.z - 1 - zz;
+      for (int yy = 0; yy < n.y; ++yy)
+      {
+        const int y = pass == 0 ? yy : n.y - 1 - yy;
+        for (int xx = 0; xx < n.x; ++xx)
+        {
+          const int x = pass == 0 ? xx : n.x - 1 - xx;
+          int& d = distance[index(x, y, z)];
+          // The half of the neighbourhood already visited in this pass's raster order.
+          for (int dz = -1; dz <= 0; ++dz)
+          {
+            for (int dy = -1; dy <= 1; ++dy)
+            {
+              for (int dx = -1; dx <= 1; ++dx)
+              {
+                if (dz == 0 && (dy > 0 || (dy == 0 && dx >= 0)))
+                {
+                  continue;
+                }
+                const int px = x + sign * dx, py = y + sign * dy, pz = z + sign * dz;
+                if (px < 0 || py < 0 || pz < 0 || px >= n.x || py >= n.y || pz >= n.z)
+                {
+                  continue;
+                }
+                d = std::min(d, distance[index(px, py, pz)] + 1);
+              }
+            }
+          }
+        }
+      }
+    }
+  }
+  this->EmptyDistance.resize(count);
+  for (long i = 0; i < count; ++i)
+  {
+    this->EmptyDistance[i] = static_cast<std::uint8_t>(std::min(distance[i], 255));
   }
 }
 
@@ -227,6 +318,9 @@ VolumeView VolumeGrid::view() const
   v.transfer.size = static_cast<int>(this->Extinction.size());
   v.majorant = this->Majorant.data();
   v.majorantDims = this->CellDims;
+  v.emptyDistance = this->EmptyDistance.empty() ? nullptr : this->EmptyDistance.data();
+  v.occupiedLow = this->OccupiedLow;
+  v.occupiedHigh = this->OccupiedHigh;
   v.cellSize = this->CellSize;
   v.cropping = this->Cropping;
   v.cropLow = this->CropLow;

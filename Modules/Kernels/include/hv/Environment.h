@@ -27,17 +27,34 @@ struct EnvironmentView
 
   HV_FUNCTION bool isUniform() const { return this->radiance == nullptr; }
 
+  HV_FUNCTION glm::vec3 texel(const glm::vec2& uv) const
+  {
+    const int column = glm::clamp(static_cast<int>(uv.x * this->width), 0, this->width - 1);
+    const int row = glm::clamp(static_cast<int>(uv.y * this->height), 0, this->height - 1);
+    const float* value = this->radiance + 3 * (static_cast<long>(row) * this->width + column);
+    return this->scale * glm::vec3(value[0], value[1], value[2]);
+  }
+
   HV_FUNCTION glm::vec3 evaluate(const glm::vec3& worldDirection) const
   {
     if (this->isUniform())
     {
       return this->scale * this->uniformRadiance;
     }
+    return this->texel(directionToEquirectangular(this->worldToMap * worldDirection));
+  }
+
+  // evaluate() and pdf() together, mapping the direction to the map once.
+  HV_FUNCTION glm::vec3 evaluate(const glm::vec3& worldDirection, float& solidAnglePdf) const
+  {
+    if (this->isUniform())
+    {
+      solidAnglePdf = InvFourPi;
+      return this->scale * this->uniformRadiance;
+    }
     const glm::vec2 uv = directionToEquirectangular(this->worldToMap * worldDirection);
-    const int column = glm::clamp(static_cast<int>(uv.x * this->width), 0, this->width - 1);
-    const int row = glm::clamp(static_cast<int>(uv.y * this->height), 0, this->height - 1);
-    const float* texel = this->radiance + 3 * (static_cast<long>(row) * this->width + column);
-    return this->scale * glm::vec3(texel[0], texel[1], texel[2]);
+    solidAnglePdf = this->pdfAt(uv);
+    return this->texel(uv);
   }
 
   // Solid-angle density of sampleDirection(). With importance sampling:
@@ -48,7 +65,15 @@ struct EnvironmentView
     {
       return InvFourPi;
     }
-    const glm::vec2 uv = directionToEquirectangular(this->worldToMap * worldDirection);
+    return this->pdfAt(directionToEquirectangular(this->worldToMap * worldDirection));
+  }
+
+  HV_FUNCTION float pdfAt(const glm::vec2& uv) const
+  {
+    if (!this->importanceSampling || !this->distribution.valid())
+    {
+      return InvFourPi;
+    }
     const float sinTheta = glm::sin(uv.y * Pi);
     if (sinTheta <= 1e-6f)
     {
@@ -59,15 +84,26 @@ struct EnvironmentView
 
   HV_FUNCTION glm::vec3 sampleDirection(float u1, float u2, float& solidAnglePdf) const
   {
+    glm::vec3 radianceUnused;
+    return this->sampleDirection(u1, u2, solidAnglePdf, radianceUnused);
+  }
+
+  // Also returns the radiance arriving from the sampled direction, read from the sampled
+  // (u, v) without mapping the direction back.
+  HV_FUNCTION glm::vec3 sampleDirection(float u1, float u2, float& solidAnglePdf, glm::vec3& sampledRadiance) const
+  {
     if (this->isUniform() || !this->importanceSampling || !this->distribution.valid())
     {
       solidAnglePdf = InvFourPi;
-      return sampleUniformSphere(u1, u2);
+      const glm::vec3 direction = sampleUniformSphere(u1, u2);
+      sampledRadiance = this->evaluate(direction);
+      return direction;
     }
     float uvPdf = 0.0f;
     const glm::vec2 uv = this->distribution.sample(u1, u2, uvPdf);
     const float sinTheta = glm::sin(uv.y * Pi);
     solidAnglePdf = sinTheta > 1e-6f ? uvPdf / (2.0f * Pi * Pi * sinTheta) : 0.0f;
+    sampledRadiance = this->texel(uv);
     return this->mapToWorld * equirectangularToDirection(uv);
   }
 };

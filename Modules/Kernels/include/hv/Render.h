@@ -136,8 +136,9 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
       else
       {
         // The environment reached by phase/BRDF sampling, weighted against light sampling.
-        const float weight = powerHeuristic(previousDirectionalPdf, scene.environment.pdf(direction));
-        radiance += throughput * weight * scene.environment.evaluate(direction);
+        float lightPdf;
+        const glm::vec3 environmentRadiance = scene.environment.evaluate(direction, lightPdf);
+        radiance += throughput * powerHeuristic(previousDirectionalPdf, lightPdf) * environmentRadiance;
       }
       break;
     }
@@ -185,11 +186,12 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
     // ... and the environment, importance-sampled, MIS-weighted against the phase/BRDF.
     {
       float lightPdf;
-      const glm::vec3 toLight = scene.environment.sampleDirection(rng.nextFloat(), rng.nextFloat(), lightPdf);
+      glm::vec3 environmentRadiance;
+      const glm::vec3 toLight =
+        scene.environment.sampleDirection(rng.nextFloat(), rng.nextFloat(), lightPdf, environmentRadiance);
       const float density = scatterDensity(surfaceEvent, normal, direction, toLight, scene.anisotropy);
       if (lightPdf > 0.0f && density > 0.0f)
       {
-        const glm::vec3 environmentRadiance = scene.environment.evaluate(toLight);
         if (environmentRadiance.x + environmentRadiance.y + environmentRadiance.z > 0.0f)
         {
           const float weight = powerHeuristic(lightPdf, density);
@@ -284,9 +286,17 @@ HV_FUNCTION glm::vec4 marchRay(const SceneView& scene, const glm::vec3& origin, 
           continue;
         }
         const float alpha = 1.0f - glm::exp(-sigma * step);
-        glm::vec3 albedo, normal;
-        float gradientMagnitude;
-        shadingFrame(volume, p, direction, albedo, normal, gradientMagnitude);
+        const bool recordsFirst = !first.valid && transmittance * (1.0f - alpha) < 0.5f;
+        glm::vec3 albedo, normal(0.0f);
+        float gradientMagnitude = 0.0f;
+        if (scene.model == EmissionAbsorption && !recordsFirst)
+        {
+          albedo = volume.transfer.albedoAt(volume.scalarAt(p)); // no gradient needed
+        }
+        else
+        {
+          shadingFrame(volume, p, direction, albedo, normal, gradientMagnitude);
+        }
         glm::vec3 shaded = albedo;
         if (scene.model == GradientPhong)
         {
@@ -316,7 +326,7 @@ HV_FUNCTION glm::vec4 marchRay(const SceneView& scene, const glm::vec3& origin, 
           shaded = albedo * (surfaceProbability * irradiance * InvPi + (1.0f - surfaceProbability) * meanRadiance);
         }
         color += transmittance * alpha * shaded;
-        if (!first.valid && transmittance * (1.0f - alpha) < 0.5f)
+        if (recordsFirst)
         {
           // The depth where the accumulated opacity crosses one half stands in for a first
           // scatter point in the deterministic models.
@@ -336,6 +346,44 @@ HV_FUNCTION glm::vec4 marchRay(const SceneView& scene, const glm::vec3& origin, 
     color += transmittance * scene.environment.evaluate(direction);
   }
   return glm::vec4(color, 1.0f - transmittance);
+}
+
+// Pixel rectangle [x0, x1) x [y0, y1) that can see the occupied part of the volume: the
+// projection of its bounding box, one pixel wider for the jittered samples. Pixels outside
+// it see neither scattering nor absorption, so a renderer may skip them when the environment
+// is not shown. Returns the whole image when a corner is behind the eye.
+HV_FUNCTION void occupiedScreenRectangle(const VolumeView& volume, const EyeView& eye, int& x0, int& y0, int& x1, int& y1)
+{
+  x0 = 0;
+  y0 = 0;
+  x1 = eye.width;
+  y1 = eye.height;
+  const glm::vec3 low = glm::max(glm::vec3(0.0f), volume.occupiedLow);
+  const glm::vec3 high = glm::min(glm::vec3(volume.dims - 1), volume.occupiedHigh);
+  if (high.x < low.x || high.y < low.y || high.z < low.z)
+  {
+    x1 = x0;
+    y1 = y0;
+    return;
+  }
+  glm::vec2 lowPixel(Infinity), highPixel(-Infinity);
+  for (int corner = 0; corner < 8; ++corner)
+  {
+    const glm::vec3 index((corner & 1) ? high.x : low.x, (corner & 2) ? high.y : low.y, (corner & 4) ? high.z : low.z);
+    const glm::vec3 world = glm::vec3(volume.indexToWorld * glm::vec4(index, 1.0f));
+    glm::vec2 pixel;
+    float depth;
+    if (!eye.project(world, pixel, depth))
+    {
+      return;
+    }
+    lowPixel = glm::min(lowPixel, pixel);
+    highPixel = glm::max(highPixel, pixel);
+  }
+  x0 = glm::clamp(static_cast<int>(glm::floor(lowPixel.x)) - 1, 0, eye.width);
+  y0 = glm::clamp(static_cast<int>(glm::floor(lowPixel.y)) - 1, 0, eye.height);
+  x1 = glm::clamp(static_cast<int>(glm::ceil(highPixel.x)) + 1, x0, eye.width);
+  y1 = glm::clamp(static_cast<int>(glm::ceil(highPixel.y)) + 1, y0, eye.height);
 }
 
 // All samples of one pixel in one frame of one eye. The random stream depends only on

@@ -34,8 +34,12 @@ HV_FUNCTION bool makeIndexRay(const VolumeView& volume, const ClippingPlanes& cl
 {
   ray.origin = glm::vec3(volume.worldToIndex * glm::vec4(worldOrigin, 1.0f));
   ray.direction = glm::mat3(volume.worldToIndex) * worldDirection;
-  glm::vec3 boxLow(0.0f);
-  glm::vec3 boxHigh = glm::vec3(volume.dims - 1);
+  glm::vec3 boxLow = glm::max(glm::vec3(0.0f), volume.occupiedLow);
+  glm::vec3 boxHigh = glm::min(glm::vec3(volume.dims - 1), volume.occupiedHigh);
+  if (boxHigh.x < boxLow.x)
+  {
+    return false; // nothing in the volume can interact
+  }
   if (volume.cropping && volume.cropFlags == 0x2000)
   {
     boxLow = glm::max(boxLow, volume.cropLow);
@@ -94,39 +98,50 @@ HV_FUNCTION bool makeIndexRay(const VolumeView& volume, const ClippingPlanes& cl
 
 // 3D-DDA over the majorant grid (Amanatides and Woo 1987): yields the macrocells a ray
 // crosses with their entry/exit parameters, so free-flight sampling can use a local majorant
-// and skip empty cells in one step.
+// and skip empty cells in one step. Runs of empty cells are leapt over with the grid's
+// Chebyshev distance to the nearest non-empty cell: all cells within distance d - 1 of an
+// empty cell at distance d are empty, so the ray can jump to the exit of that cube.
 struct MajorantIterator
 {
   glm::ivec3 cell;
   glm::ivec3 step;
   glm::vec3 tNext;
   glm::vec3 tDelta;
+  glm::vec3 origin;
+  glm::vec3 direction;
   float t;
   float tEnd;
 
   HV_FUNCTION void begin(const VolumeView& volume, const IndexRay& ray)
   {
-    this->t = ray.tMin;
+    this->origin = ray.origin;
+    this->direction = ray.direction;
     this->tEnd = ray.tMax;
+    this->startAt(volume, ray.tMin);
+  }
+
+  HV_FUNCTION void startAt(const VolumeView& volume, float tStart)
+  {
+    this->t = tStart;
     const float cellSize = static_cast<float>(volume.cellSize);
-    const glm::vec3 p = ray.origin + ray.tMin * ray.direction;
+    const glm::vec3 p = this->origin + tStart * this->direction;
     for (int axis = 0; axis < 3; ++axis)
     {
       int c = static_cast<int>(glm::floor(p[axis] / cellSize));
       c = glm::clamp(c, 0, volume.majorantDims[axis] - 1);
       this->cell[axis] = c;
-      const float d = ray.direction[axis];
+      const float d = this->direction[axis];
       if (d > 0.0f)
       {
         this->step[axis] = 1;
         this->tDelta[axis] = cellSize / d;
-        this->tNext[axis] = ray.tMin + ((c + 1) * cellSize - p[axis]) / d;
+        this->tNext[axis] = tStart + ((c + 1) * cellSize - p[axis]) / d;
       }
       else if (d < 0.0f)
       {
         this->step[axis] = -1;
         this->tDelta[axis] = -cellSize / d;
-        this->tNext[axis] = ray.tMin + (c * cellSize - p[axis]) / d;
+        this->tNext[axis] = tStart + (c * cellSize - p[axis]) / d;
       }
       else
       {
@@ -151,6 +166,33 @@ struct MajorantIterator
 
   HV_FUNCTION void advance(const VolumeView& volume)
   {
+    const int distance = volume.emptyDistance != nullptr ? volume.emptyDistanceOfCell(this->cell) : 0;
+    if (distance > 1)
+    {
+      // Leap to where the ray leaves the empty cube of cells within distance - 1.
+      const float cellSize = static_cast<float>(volume.cellSize);
+      float leap = this->tEnd;
+      for (int axis = 0; axis < 3; ++axis)
+      {
+        if (this->step[axis] != 0)
+        {
+          const int face = this->step[axis] > 0 ? this->cell[axis] + distance : this->cell[axis] - distance + 1;
+          leap = glm::min(leap, (face * cellSize - this->origin[axis]) / this->direction[axis]);
+        }
+      }
+      // Past the cube face by a hair, so rounding cannot put the ray back inside.
+      leap += 1e-4f * cellSize;
+      if (leap >= this->tEnd)
+      {
+        this->t = this->tEnd;
+        return;
+      }
+      if (leap > this->t)
+      {
+        this->startAt(volume, leap);
+        return;
+      }
+    }
     int axis = 0;
     if (this->tNext.y < this->tNext[axis])
     {

@@ -5,6 +5,7 @@
 
 #include "hv/Volume.h"
 
+#include <cstdint>
 #include <vector>
 
 namespace hv
@@ -16,9 +17,8 @@ namespace hv
 class VolumeGrid
 {
 public:
-  // Scalars normalised to [0, 1] over the data range, x fastest. Copies.
-  void setScalars(const glm::ivec3& dims, std::vector<float> normalizedScalars);
-  const std::vector<float>& scalars() const { return this->Scalars; }
+  // Scalars normalised to [0, 1] over the data range, x fastest; stored as 16-bit fixed point.
+  void setScalars(const glm::ivec3& dims, const std::vector<float>& normalizedScalars);
 
   // Affine map from continuous voxel indices to world coordinates (origin, spacing,
   // direction and the prop's matrix combined).
@@ -48,9 +48,10 @@ public:
 private:
   void updateCellRanges();
   void updateMajorants();
+  void updateEmptyDistance();
 
   glm::ivec3 Dims = glm::ivec3(0);
-  std::vector<float> Scalars;
+  std::vector<std::uint16_t> Scalars;
   std::vector<float> GradientMagnitude; // per voxel, world units, normalised scalar
   float MaximumGradient = 1.0f;
   glm::mat4 IndexToWorld = glm::mat4(1.0f);
@@ -63,6 +64,9 @@ private:
   std::vector<float> CellScalarHigh;
   std::vector<float> CellGradientOpacityHigh;
   std::vector<float> Majorant;
+  std::vector<std::uint8_t> EmptyDistance;
+  glm::vec3 OccupiedLow = glm::vec3(0.0f);
+  glm::vec3 OccupiedHigh = glm::vec3(-1.0f);
   float SurfaceFactor = 0.0f;
   bool Cropping = false;
   glm::vec3 CropLow = glm::vec3(0.0f);
