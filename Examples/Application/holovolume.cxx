@@ -13,7 +13,6 @@
 #include "vtkImageData.h"
 #include "vtkLight.h"
 #include "vtkLightCollection.h"
-#include "vtkNIFTIImageReader.h"
 #include "vtkNew.h"
 #include "vtkPNGWriter.h"
 #include "vtkPathTracedVolumeMapper.h"
@@ -21,7 +20,6 @@
 #include "vtkSMPTools.h"
 #include "vtkUnsignedCharArray.h"
 #include "vtkVolume.h"
-#include "vtkXMLImageDataReader.h"
 #include "vtkXMLImageDataWriter.h"
 
 #include <chrono>
@@ -203,17 +201,6 @@ bool ParseArguments(int argc, char* argv[], Options& options)
   return true;
 }
 
-bool FileExists(const std::string& path)
-{
-  struct stat info;
-  return stat(path.c_str(), &info) == 0;
-}
-
-bool EndsWith(const std::string& text, const std::string& suffix)
-{
-  return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
-
 // A one-line progress bar on stderr, fed by the mapper's ProgressEvent.
 struct ProgressState
 {
@@ -287,7 +274,7 @@ int main(int argc, char* argv[])
   {
     vtkSMPTools::Initialize(options.Threads);
   }
-  if (!FileExists(options.Volume))
+  if (!holovolume::FileExists(options.Volume))
   {
     std::cerr << "holovolume: volume '" << options.Volume << "' not found."
               << (options.Volume == holovolume::DefaultVolume() ? " Install it with: apt-get install mricron-data" : "")
@@ -295,23 +282,8 @@ int main(int argc, char* argv[])
     return 1;
   }
 
-  // Volume.
-  vtkSmartPointer<vtkImageData> volumeData;
-  if (EndsWith(options.Volume, ".vti"))
-  {
-    vtkNew<vtkXMLImageDataReader> reader;
-    reader->SetFileName(options.Volume.c_str());
-    reader->Update();
-    volumeData = reader->GetOutput();
-  }
-  else
-  {
-    vtkNew<vtkNIFTIImageReader> reader;
-    reader->SetFileName(options.Volume.c_str());
-    reader->Update();
-    volumeData = reader->GetOutput();
-  }
-  if (!volumeData || volumeData->GetNumberOfPoints() == 0)
+  vtkSmartPointer<vtkImageData> volumeData = holovolume::ReadVolume(options.Volume);
+  if (!volumeData)
   {
     std::cerr << "holovolume: could not read a volume from '" << options.Volume << "'\n";
     return 1;
@@ -328,7 +300,7 @@ int main(int argc, char* argv[])
   vtkNew<vtkEnvironmentMapReader> environmentReader;
   if (options.Environment != "uniform")
   {
-    if (!FileExists(options.Environment))
+    if (!holovolume::FileExists(options.Environment))
     {
       std::cerr << "holovolume: environment map '" << options.Environment << "' not found."
                 << (options.Environment == holovolume::DefaultEnvironment() ? " Install it with: apt-get install blender-data"

@@ -12,11 +12,15 @@
 #include "vtkImageData.h"
 #include "vtkMath.h"
 #include "vtkMatrix4x4.h"
+#include "vtkNIFTIImageReader.h"
 #include "vtkNew.h"
 #include "vtkPiecewiseFunction.h"
+#include "vtkSmartPointer.h"
 #include "vtkVolumeProperty.h"
+#include "vtkXMLImageDataReader.h"
 
 #include <string>
+#include <sys/stat.h>
 
 namespace holovolume
 {
@@ -28,6 +32,33 @@ inline const char* DefaultVolume()
 inline const char* DefaultEnvironment()
 {
   return "/usr/share/blender/datafiles/studiolights/world/courtyard.exr";
+}
+
+inline bool FileExists(const std::string& path)
+{
+  struct stat info;
+  return stat(path.c_str(), &info) == 0;
+}
+
+// Reads a VTK XML image (.vti) or a NIfTI volume (.nii, .nii.gz); nullptr when nothing was read.
+inline vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
+{
+  vtkSmartPointer<vtkImageData> volume;
+  if (path.size() >= 4 && path.compare(path.size() - 4, 4, ".vti") == 0)
+  {
+    vtkNew<vtkXMLImageDataReader> reader;
+    reader->SetFileName(path.c_str());
+    reader->Update();
+    volume = reader->GetOutput();
+  }
+  else
+  {
+    vtkNew<vtkNIFTIImageReader> reader;
+    reader->SetFileName(path.c_str());
+    reader->Update();
+    volume = reader->GetOutput();
+  }
+  return volume && volume->GetNumberOfPoints() > 0 ? volume : nullptr;
 }
 
 // Transfer function for an 8-bit T1-weighted head MRI such as ch2 (MNI space, 1 mm):
@@ -100,13 +131,11 @@ inline void FrameHead(vtkCamera* camera, vtkImageData* volume, double azimuthDeg
   camera->SetClippingRange(distance - 1.5 * radius > 1.0 ? distance - 1.5 * radius : 1.0, distance + 1.5 * radius);
 }
 
-// Per-eye view and projection of a stereo pair around `camera`: eyes separated by the
-// interpupillary distance along the camera's right axis, parallel view directions and
-// off-axis frustums converging on the focal plane, the way a headset renders.
-inline void StereoEyeMatrices(vtkCamera* camera, double aspect, double interpupillaryDistance, int eye,
-  vtkMatrix4x4* view, vtkMatrix4x4* projection)
+// One eye of a stereo pair around `camera`: shifted by half the interpupillary distance along
+// the camera's right axis, parallel view direction, and an off-axis frustum converging on the
+// focal plane (zero parallax there), the way a headset renders.
+inline void StereoEyeCamera(vtkCamera* camera, double aspect, double interpupillaryDistance, int eye, vtkCamera* eyeCamera)
 {
-  vtkNew<vtkCamera> eyeCamera;
   eyeCamera->DeepCopy(camera);
   double right[3], direction[3];
   camera->GetDirectionOfProjection(direction);
@@ -123,9 +152,16 @@ inline void StereoEyeMatrices(vtkCamera* camera, double aspect, double interpupi
   }
   eyeCamera->SetPosition(position);
   eyeCamera->SetFocalPoint(focal);
-  // Shift the window so both frustums meet on the focal plane (zero parallax there).
   const double halfHeight = std::tan(vtkMath::RadiansFromDegrees(camera->GetViewAngle()) / 2.0) * camera->GetDistance();
   eyeCamera->SetWindowCenter(-offset / (halfHeight * aspect), 0.0);
+}
+
+// The eye's view and projection matrices (OpenGL convention), as a headset would send them.
+inline void StereoEyeMatrices(vtkCamera* camera, double aspect, double interpupillaryDistance, int eye,
+  vtkMatrix4x4* view, vtkMatrix4x4* projection)
+{
+  vtkNew<vtkCamera> eyeCamera;
+  StereoEyeCamera(camera, aspect, interpupillaryDistance, eye, eyeCamera);
   view->DeepCopy(eyeCamera->GetModelViewTransformMatrix());
   projection->DeepCopy(eyeCamera->GetProjectionTransformMatrix(aspect, -1, 1));
 }

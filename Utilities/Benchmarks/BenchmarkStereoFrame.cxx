@@ -195,16 +195,6 @@ bool ParseArguments(int argc, char* argv[], Options& options)
   return true;
 }
 
-bool FileExists(const std::string& path)
-{
-  struct stat info;
-  return stat(path.c_str(), &info) == 0;
-}
-
-bool EndsWith(const std::string& text, const std::string& suffix)
-{
-  return text.size() >= suffix.size() && text.compare(text.size() - suffix.size(), suffix.size(), suffix) == 0;
-}
 
 std::string BaseName(const std::string& path)
 {
@@ -229,44 +219,6 @@ double MillisecondsSince(std::chrono::steady_clock::time_point start)
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
 }
 
-// The eye camera that holovolume::StereoEyeMatrices builds internally, so a vtkRenderer can
-// render exactly the view the path tracer gets as matrices. Checked against those matrices in
-// main(): if the shared header changes, the benchmark refuses to compare different views.
-void StereoEyeCamera(vtkCamera* camera, double aspect, double interpupillaryDistance, int eye, vtkCamera* eyeCamera)
-{
-  eyeCamera->DeepCopy(camera);
-  double right[3], direction[3];
-  camera->GetDirectionOfProjection(direction);
-  vtkMath::Cross(direction, camera->GetViewUp(), right);
-  vtkMath::Normalize(right);
-  const double offset = (eye == 0 ? -0.5 : 0.5) * interpupillaryDistance;
-  double position[3], focal[3];
-  camera->GetPosition(position);
-  camera->GetFocalPoint(focal);
-  for (int i = 0; i < 3; ++i)
-  {
-    position[i] += offset * right[i];
-    focal[i] += offset * right[i];
-  }
-  eyeCamera->SetPosition(position);
-  eyeCamera->SetFocalPoint(focal);
-  const double halfHeight =
-    std::tan(vtkMath::RadiansFromDegrees(camera->GetViewAngle()) / 2.0) * camera->GetDistance();
-  eyeCamera->SetWindowCenter(-offset / (halfHeight * aspect), 0.0);
-}
-
-double MaximumDifference(vtkMatrix4x4* a, vtkMatrix4x4* b)
-{
-  double difference = 0.0;
-  for (int i = 0; i < 4; ++i)
-  {
-    for (int j = 0; j < 4; ++j)
-    {
-      difference = std::max(difference, std::fabs(a->GetElement(i, j) - b->GetElement(i, j)));
-    }
-  }
-  return difference;
-}
 
 // One image per eye reduced to a coverage mask (1 where the volume shows), to check after the
 // timing that every mapper drew the same silhouette, i.e. really rendered the same views.
@@ -588,14 +540,14 @@ int main(int argc, char* argv[])
   // Mesa reads LP_NUM_THREADS when it creates the llvmpipe screen, i.e. at the first window.
   setenv("LP_NUM_THREADS", std::to_string(threads).c_str(), 0);
 
-  if (!FileExists(options.Volume))
+  if (!holovolume::FileExists(options.Volume))
   {
     std::cerr << "holovolume-benchmark: volume '" << options.Volume << "' not found."
               << (options.Volume == holovolume::DefaultVolume() ? " Install it with: apt-get install mricron-data" : "")
               << "\n";
     return 1;
   }
-  if (options.Environment != "uniform" && !FileExists(options.Environment))
+  if (options.Environment != "uniform" && !holovolume::FileExists(options.Environment))
   {
     std::cerr << "holovolume-benchmark: environment map '" << options.Environment << "' not found."
               << (options.Environment == holovolume::DefaultEnvironment()
@@ -609,23 +561,8 @@ int main(int argc, char* argv[])
     mkdir(options.SaveImages.c_str(), 0755);
   }
 
-  // Volume, read like the holovolume application does.
-  vtkSmartPointer<vtkImageData> volumeData;
-  if (EndsWith(options.Volume, ".vti"))
-  {
-    vtkNew<vtkXMLImageDataReader> reader;
-    reader->SetFileName(options.Volume.c_str());
-    reader->Update();
-    volumeData = reader->GetOutput();
-  }
-  else
-  {
-    vtkNew<vtkNIFTIImageReader> reader;
-    reader->SetFileName(options.Volume.c_str());
-    reader->Update();
-    volumeData = reader->GetOutput();
-  }
-  if (!volumeData || volumeData->GetNumberOfPoints() == 0)
+  vtkSmartPointer<vtkImageData> volumeData = holovolume::ReadVolume(options.Volume);
+  if (!volumeData)
   {
     std::cerr << "holovolume-benchmark: could not read a volume from '" << options.Volume << "'\n";
     return 1;
@@ -681,15 +618,7 @@ int main(int argc, char* argv[])
   {
     holovolume::StereoEyeMatrices(
       camera, aspect, options.InterpupillaryDistance, eye, viewMatrices[eye], projectionMatrices[eye]);
-    StereoEyeCamera(camera, aspect, options.InterpupillaryDistance, eye, eyeCameras[eye]);
-    const double difference = std::max(MaximumDifference(viewMatrices[eye], eyeCameras[eye]->GetModelViewTransformMatrix()),
-      MaximumDifference(projectionMatrices[eye], eyeCameras[eye]->GetProjectionTransformMatrix(aspect, -1, 1)));
-    if (difference > 1e-9)
-    {
-      std::cerr << "holovolume-benchmark: the reference eye camera differs from holovolume::StereoEyeMatrices by "
-                << difference << "; update StereoEyeCamera()\n";
-      return 1;
-    }
+    holovolume::StereoEyeCamera(camera, aspect, options.InterpupillaryDistance, eye, eyeCameras[eye]);
   }
   vtkMatrix4x4* views[2] = { viewMatrices[0], viewMatrices[1] };
   vtkMatrix4x4* projections[2] = { projectionMatrices[0], projectionMatrices[1] };
