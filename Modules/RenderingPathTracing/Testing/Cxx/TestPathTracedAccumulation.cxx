@@ -10,6 +10,8 @@
 #include "vtkCallbackCommand.h"
 #include "vtkCommand.h"
 #include "vtkFloatArray.h"
+#include "vtkLight.h"
+#include "vtkLightCollection.h"
 
 #include <iostream>
 #include <vector>
@@ -138,6 +140,31 @@ int TestPathTracedAccumulation(int, char*[])
   scene.Mapper->SetEnvironmentMapData(pathtracingtest::MakeSky(64, 800));
   render();
   expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "a new environment restarts the accumulation");
+
+  // New data restarts.
+  render();
+  auto* input = vtkImageData::SafeDownCast(scene.Mapper->GetInput());
+  static_cast<unsigned short*>(input->GetScalarPointer(24, 24, 24))[0] = 0;
+  input->GetPointData()->GetScalars()->Modified();
+  input->Modified();
+  render();
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "modified input data restarts the accumulation");
+
+  // A change of the lights restarts.
+  vtkNew<vtkLightCollection> lights;
+  vtkNew<vtkLight> light;
+  light->SetPosition(0, 0, 50);
+  light->SetFocalPoint(0, 0, 0);
+  lights->AddItem(light);
+  auto renderLit = [&]() {
+    return scene.Mapper->RenderEye(scene.Volume, 0, scene.View[0], scene.Projection[0], size, size, lights);
+  };
+  renderLit();
+  renderLit();
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 2, "unchanged lights keep accumulating");
+  light->SetIntensity(0.5);
+  renderLit();
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "a light change restarts the accumulation");
 
   // Rendering setting change restarts; explicit reset too.
   render();

@@ -91,6 +91,7 @@ class PathTracedVolumeMapperTest(unittest.TestCase):
             self.assertEqual(display.GetPointData().GetScalars().GetNumberOfComponents(), 4)
             self.assertGreater(display.GetPointData().GetScalars().GetRange(3)[1], 0)
         self.assertEqual(mapper.GetIlluminationModelAsString(), "PathTraced")
+        self.assertIn("IlluminationModel: PathTraced", str(mapper))  # PrintSelf
 
     def test_bad_input_reports_error(self):
         mapper = holovolume.vtkPathTracedVolumeMapper()
