@@ -113,7 +113,8 @@ bool ParseArguments(int argc, char* argv[], Options& options)
   for (int i = 1; i < argc; ++i)
   {
     const std::string argument = argv[i];
-    auto value = [&](const char* name) -> const char* {
+    auto value = [&](const char* name) -> const char*
+    {
       if (i + 1 >= argc)
       {
         std::cerr << "holovolume: " << name << " needs a value (see --help)\n";
@@ -140,13 +141,15 @@ bool ParseArguments(int argc, char* argv[], Options& options)
     {
       const std::string model = value("--model");
       if (model == "all")
-        options.Models = { "path-traced", "emission-absorption", "gradient-phong", "prefiltered-environment" };
-      else if (model == "path-traced" || model == "emission-absorption" || model == "gradient-phong" ||
-        model == "prefiltered-environment")
+        options.Models = { "path-traced", "emission-absorption", "gradient-phong",
+          "prefiltered-environment" };
+      else if (model == "path-traced" || model == "emission-absorption" ||
+        model == "gradient-phong" || model == "prefiltered-environment")
         options.Models = { model };
       else
       {
-        std::cerr << "holovolume: unknown model '" << model << "'; use path-traced, emission-absorption, "
+        std::cerr << "holovolume: unknown model '" << model
+                  << "'; use path-traced, emission-absorption, "
                   << "gradient-phong, prefiltered-environment or all\n";
         return false;
       }
@@ -187,8 +190,8 @@ bool ParseArguments(int argc, char* argv[], Options& options)
       return false;
     }
   }
-  if (options.Width < 1 || options.Height < 1 || options.SamplesPerPixel < 1 || options.Frames < 1 ||
-    options.Bounces < 1)
+  if (options.Width < 1 || options.Height < 1 || options.SamplesPerPixel < 1 ||
+    options.Frames < 1 || options.Bounces < 1)
   {
     std::cerr << "holovolume: width, height, spp, frames and bounces must be positive\n";
     return false;
@@ -216,17 +219,20 @@ void OnProgress(vtkObject* caller, unsigned long, void* clientData, void*)
   {
     return; // no bar in logs; the per-model summary line follows
   }
-  const double progress = (state->Frame + static_cast<vtkAlgorithm*>(caller)->GetProgress()) / state->Frames;
+  const double progress =
+    (state->Frame + static_cast<vtkAlgorithm*>(caller)->GetProgress()) / state->Frames;
   const int width = 30;
   const int filled = static_cast<int>(progress * width + 0.5);
-  std::fprintf(stderr, "\r  %-24s [%s%s] %3d%%  frame %d/%d", state->Label.c_str(), std::string(filled, '#').c_str(),
-    std::string(width - filled, '.').c_str(), static_cast<int>(progress * 100.0 + 0.5),
-    std::min(state->Frame + 1, state->Frames), state->Frames);
+  std::fprintf(stderr, "\r  %-24s [%s%s] %3d%%  frame %d/%d", state->Label.c_str(),
+    std::string(filled, '#').c_str(), std::string(width - filled, '.').c_str(),
+    static_cast<int>(progress * 100.0 + 0.5), std::min(state->Frame + 1, state->Frames),
+    state->Frames);
   std::fflush(stderr);
 }
 
 // Display image of an eye as RGB over a dark background, or RGBA when transparent.
-vtkSmartPointer<vtkImageData> DisplayImage(vtkPathTracedVolumeMapper* mapper, int eye, bool transparent)
+vtkSmartPointer<vtkImageData> DisplayImage(
+  vtkPathTracedVolumeMapper* mapper, int eye, bool transparent)
 {
   vtkNew<vtkImageData> rgba;
   mapper->ComputeDisplayImage(eye, rgba);
@@ -248,7 +254,8 @@ vtkSmartPointer<vtkImageData> DisplayImage(vtkPathTracedVolumeMapper* mapper, in
     for (int c = 0; c < 3; ++c)
     {
       // Premultiplied colour over the background.
-      target[3 * i + c] = static_cast<unsigned char>(std::min(255, source[4 * i + c] + (255 - alpha) * background / 255));
+      target[3 * i + c] = static_cast<unsigned char>(
+        std::min(255, source[4 * i + c] + (255 - alpha) * background / 255));
     }
   }
   return rgb;
@@ -277,7 +284,9 @@ int main(int argc, char* argv[])
   if (!holovolume::FileExists(options.Volume))
   {
     std::cerr << "holovolume: volume '" << options.Volume << "' not found."
-              << (options.Volume == holovolume::DefaultVolume() ? " Install it with: apt-get install mricron-data" : "")
+              << (options.Volume == holovolume::DefaultVolume()
+                     ? " Install it with: apt-get install mricron-data"
+                     : "")
               << "\n";
     return 1;
   }
@@ -292,8 +301,8 @@ int main(int argc, char* argv[])
   volumeData->GetDimensions(dims);
   double range[2];
   volumeData->GetScalarRange(range);
-  std::cout << "Volume       " << options.Volume << " (" << dims[0] << "x" << dims[1] << "x" << dims[2]
-            << ", scalars " << range[0] << "-" << range[1] << ")\n";
+  std::cout << "Volume       " << options.Volume << " (" << dims[0] << "x" << dims[1] << "x"
+            << dims[2] << ", scalars " << range[0] << "-" << range[1] << ")\n";
 
   vtkNew<vtkPathTracedVolumeMapper> mapper;
   mapper->SetInputData(volumeData);
@@ -303,8 +312,9 @@ int main(int argc, char* argv[])
     if (!holovolume::FileExists(options.Environment))
     {
       std::cerr << "holovolume: environment map '" << options.Environment << "' not found."
-                << (options.Environment == holovolume::DefaultEnvironment() ? " Install it with: apt-get install blender-data"
-                                                                            : " Use --environment uniform for a uniform sky.")
+                << (options.Environment == holovolume::DefaultEnvironment()
+                       ? " Install it with: apt-get install blender-data"
+                       : " Use --environment uniform for a uniform sky.")
                 << "\n";
       return 1;
     }
@@ -312,13 +322,15 @@ int main(int argc, char* argv[])
     environmentReader->Update();
     if (environmentReader->GetOutput()->GetNumberOfPoints() == 0)
     {
-      std::cerr << "holovolume: could not read the environment map '" << options.Environment << "'\n";
+      std::cerr << "holovolume: could not read the environment map '" << options.Environment
+                << "'\n";
       return 1;
     }
     mapper->SetEnvironmentMapConnection(environmentReader->GetOutputPort());
     int mapDims[3];
     environmentReader->GetOutput()->GetDimensions(mapDims);
-    std::cout << "Environment  " << options.Environment << " (" << mapDims[0] << "x" << mapDims[1] << ")\n";
+    std::cout << "Environment  " << options.Environment << " (" << mapDims[0] << "x" << mapDims[1]
+              << ")\n";
   }
   else
   {
@@ -333,8 +345,9 @@ int main(int argc, char* argv[])
   mapper->SetMaximumBounces(options.Bounces);
   mapper->SetSeed(options.Seed);
   mapper->SetExposure(options.Exposure);
-  mapper->SetToneMapping(options.ToneMapping == "aces" ? vtkPathTracedVolumeMapper::TONE_MAPPING_ACES
-                                                       : vtkPathTracedVolumeMapper::TONE_MAPPING_CLAMP);
+  mapper->SetToneMapping(options.ToneMapping == "aces"
+      ? vtkPathTracedVolumeMapper::TONE_MAPPING_ACES
+      : vtkPathTracedVolumeMapper::TONE_MAPPING_CLAMP);
 
   vtkNew<vtkVolumeProperty> property;
   holovolume::ApplyHeadMRIPreset(property, range[1] > 0 ? range[1] : 255.0);
@@ -349,8 +362,8 @@ int main(int argc, char* argv[])
   vtkNew<vtkMatrix4x4> projection[2];
   for (int eye = 0; eye < 2; ++eye)
   {
-    holovolume::StereoEyeMatrices(
-      camera, aspect, options.Stereo ? options.InterpupillaryDistance : 0.0, eye, view[eye], projection[eye]);
+    holovolume::StereoEyeMatrices(camera, aspect,
+      options.Stereo ? options.InterpupillaryDistance : 0.0, eye, view[eye], projection[eye]);
   }
   // The gradient-Phong model needs lights: a headlight-like key light from the camera side.
   vtkNew<vtkLightCollection> lights;
@@ -362,9 +375,9 @@ int main(int argc, char* argv[])
   lights->AddItem(keyLight);
 
   mkdir(options.Output.c_str(), 0755);
-  std::cout << "Output       " << options.Output << "/ (" << options.Width << "x" << options.Height << " per eye, "
-            << (options.Stereo ? "stereo" : "mono") << ", " << options.SamplesPerPixel << " spp x "
-            << options.Frames << " frames)\n";
+  std::cout << "Output       " << options.Output << "/ (" << options.Width << "x" << options.Height
+            << " per eye, " << (options.Stereo ? "stereo" : "mono") << ", "
+            << options.SamplesPerPixel << " spp x " << options.Frames << " frames)\n";
 
   ProgressState progress;
   vtkNew<vtkCallbackCommand> progressCallback;
@@ -389,8 +402,8 @@ int main(int argc, char* argv[])
     for (progress.Frame = 0; progress.Frame < progress.Frames; ++progress.Frame)
     {
       const int ok = options.Stereo
-        ? mapper->RenderStereoFrame(volume, view[0], projection[0], view[1], projection[1], options.Width,
-            options.Height, model == "gradient-phong" ? lights.Get() : nullptr)
+        ? mapper->RenderStereoFrame(volume, view[0], projection[0], view[1], projection[1],
+            options.Width, options.Height, model == "gradient-phong" ? lights.Get() : nullptr)
         : mapper->RenderEye(volume, 0, view[0], projection[0], options.Width, options.Height,
             model == "gradient-phong" ? lights.Get() : nullptr);
       if (!ok)
@@ -399,13 +412,15 @@ int main(int argc, char* argv[])
         return 1;
       }
     }
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (isatty(fileno(stderr)))
     {
       std::fprintf(stderr, "\n");
     }
-    std::printf("  %-24s %d frames in %.2f s (%.0f ms per %s frame)\n", model.c_str(), progress.Frames, seconds,
-      1000.0 * seconds / progress.Frames, options.Stereo ? "stereo" : "mono");
+    std::printf("  %-24s %d frames in %.2f s (%.0f ms per %s frame)\n", model.c_str(),
+      progress.Frames, seconds, 1000.0 * seconds / progress.Frames,
+      options.Stereo ? "stereo" : "mono");
 
     const std::string prefix = options.Output + "/" + model;
     if (options.Stereo)

@@ -118,23 +118,27 @@ inline void FrameHead(vtkCamera* camera, vtkImageData* volume, double azimuthDeg
   const double center[3] = { 0.5 * (bounds[0] + bounds[1]), 0.5 * (bounds[2] + bounds[3]),
     0.5 * (bounds[4] + bounds[5]) };
   const double radius = 0.5 *
-    std::sqrt((bounds[1] - bounds[0]) * (bounds[1] - bounds[0]) + (bounds[3] - bounds[2]) * (bounds[3] - bounds[2]) +
+    std::sqrt((bounds[1] - bounds[0]) * (bounds[1] - bounds[0]) +
+      (bounds[3] - bounds[2]) * (bounds[3] - bounds[2]) +
       (bounds[5] - bounds[4]) * (bounds[5] - bounds[4]));
   const double distance = radius / std::sin(vtkMath::RadiansFromDegrees(15.0));
   const double azimuth = vtkMath::RadiansFromDegrees(azimuthDegrees);
   const double elevation = vtkMath::RadiansFromDegrees(12.0);
   camera->SetFocalPoint(center);
   camera->SetPosition(center[0] + distance * std::cos(elevation) * std::sin(azimuth),
-    center[1] + distance * std::cos(elevation) * std::cos(azimuth), center[2] + distance * std::sin(elevation));
+    center[1] + distance * std::cos(elevation) * std::cos(azimuth),
+    center[2] + distance * std::sin(elevation));
   camera->SetViewUp(0, 0, 1);
   camera->SetViewAngle(30.0);
-  camera->SetClippingRange(distance - 1.5 * radius > 1.0 ? distance - 1.5 * radius : 1.0, distance + 1.5 * radius);
+  camera->SetClippingRange(
+    distance - 1.5 * radius > 1.0 ? distance - 1.5 * radius : 1.0, distance + 1.5 * radius);
 }
 
 // One eye of a stereo pair around `camera`: shifted by half the interpupillary distance along
 // the camera's right axis, parallel view direction, and an off-axis frustum converging on the
 // focal plane (zero parallax there), the way a headset renders.
-inline void StereoEyeCamera(vtkCamera* camera, double aspect, double interpupillaryDistance, int eye, vtkCamera* eyeCamera)
+inline void StereoEyeCamera(
+  vtkCamera* camera, double aspect, double interpupillaryDistance, int eye, vtkCamera* eyeCamera)
 {
   eyeCamera->DeepCopy(camera);
   double right[3], direction[3];
@@ -152,13 +156,14 @@ inline void StereoEyeCamera(vtkCamera* camera, double aspect, double interpupill
   }
   eyeCamera->SetPosition(position);
   eyeCamera->SetFocalPoint(focal);
-  const double halfHeight = std::tan(vtkMath::RadiansFromDegrees(camera->GetViewAngle()) / 2.0) * camera->GetDistance();
+  const double halfHeight =
+    std::tan(vtkMath::RadiansFromDegrees(camera->GetViewAngle()) / 2.0) * camera->GetDistance();
   eyeCamera->SetWindowCenter(-offset / (halfHeight * aspect), 0.0);
 }
 
 // The eye's view and projection matrices (OpenGL convention), as a headset would send them.
-inline void StereoEyeMatrices(vtkCamera* camera, double aspect, double interpupillaryDistance, int eye,
-  vtkMatrix4x4* view, vtkMatrix4x4* projection)
+inline void StereoEyeMatrices(vtkCamera* camera, double aspect, double interpupillaryDistance,
+  int eye, vtkMatrix4x4* view, vtkMatrix4x4* projection)
 {
   vtkNew<vtkCamera> eyeCamera;
   StereoEyeCamera(camera, aspect, interpupillaryDistance, eye, eyeCamera);

@@ -34,21 +34,24 @@ std::unique_ptr<OIIO::ImageInput> OpenImage(vtkEnvironmentMapReader* self, const
 {
   if (!fileName || !*fileName)
   {
-    vtkErrorWithObjectMacro(self, "No file name: call SetFileName() with an .exr or .hdr panorama.");
+    vtkErrorWithObjectMacro(
+      self, "No file name: call SetFileName() with an .exr or .hdr panorama.");
     return nullptr;
   }
   auto image = OIIO::ImageInput::open(fileName);
   if (!image)
   {
-    vtkErrorWithObjectMacro(self, "Cannot open environment map '" << fileName << "': " << OIIO::geterror()
-                                                                  << ". Check the path and that it is an "
-                                                                     "image OpenImageIO reads (EXR, HDR, ...).");
+    vtkErrorWithObjectMacro(self,
+      "Cannot open environment map '" << fileName << "': " << OIIO::geterror()
+                                      << ". Check the path and that it is an "
+                                         "image OpenImageIO reads (EXR, HDR, ...).");
   }
   return image;
 }
 }
 
-int vtkEnvironmentMapReader::RequestInformation(vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+int vtkEnvironmentMapReader::RequestInformation(
+  vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
 {
   auto image = OpenImage(this, this->FileName);
   if (!image)
@@ -63,7 +66,8 @@ int vtkEnvironmentMapReader::RequestInformation(vtkInformation*, vtkInformationV
   return 1;
 }
 
-int vtkEnvironmentMapReader::RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
+int vtkEnvironmentMapReader::RequestData(
+  vtkInformation*, vtkInformationVector**, vtkInformationVector* outputVector)
 {
   vtkImageData* output = vtkImageData::GetData(outputVector);
   auto image = OpenImage(this, this->FileName);
@@ -94,7 +98,8 @@ int vtkEnvironmentMapReader::RequestData(vtkInformation*, vtkInformationVector**
   for (int row = 0; row < height; ++row)
   {
     // Image files start at the top row; VTK images at the bottom one.
-    const float* source = pixels.data() + static_cast<std::size_t>(height - 1 - row) * width * channels;
+    const float* source =
+      pixels.data() + static_cast<std::size_t>(height - 1 - row) * width * channels;
     for (int column = 0; column < width; ++column)
     {
       for (int c = 0; c < 3; ++c)
@@ -136,7 +141,8 @@ void vtkEnvironmentMapReader::PrintSelf(ostream& os, vtkIndent indent)
 {
   this->Superclass::PrintSelf(os, indent);
   os << indent << "FileName: " << (this->FileName ? this->FileName : "(none)") << "\n";
-  os << indent << "ReplaceNonFiniteValues: " << (this->ReplaceNonFiniteValues ? "On" : "Off") << "\n";
+  os << indent << "ReplaceNonFiniteValues: " << (this->ReplaceNonFiniteValues ? "On" : "Off")
+     << "\n";
   os << indent << "NumberOfInvalidValues: " << this->NumberOfInvalidValues << "\n";
   os << indent << "NumberOfClampedNegativeValues: " << this->NumberOfClampedNegativeValues << "\n";
 }

@@ -102,12 +102,14 @@ struct NormalizeScalarsWorker
   void operator()(ArrayType* array, float* out, double low, double scale)
   {
     const auto values = vtk::DataArrayValueRange<1>(array);
-    vtkSMPTools::For(0, static_cast<vtkIdType>(values.size()), [&](vtkIdType begin, vtkIdType end) {
-      for (vtkIdType i = begin; i < end; ++i)
+    vtkSMPTools::For(0, static_cast<vtkIdType>(values.size()),
+      [&](vtkIdType begin, vtkIdType end)
       {
-        out[i] = static_cast<float>((static_cast<double>(values[i]) - low) * scale);
-      }
-    });
+        for (vtkIdType i = begin; i < end; ++i)
+        {
+          out[i] = static_cast<float>((static_cast<double>(values[i]) - low) * scale);
+        }
+      });
   }
 };
 }
@@ -262,25 +264,26 @@ vtkImageData* vtkPathTracedVolumeMapper::GetEyeOutput(int eye)
 
 namespace
 {
-bool ReportInputProblem(vtkPathTracedVolumeMapper* self, vtkImageData* input, vtkDataArray*& scalars)
+bool ReportInputProblem(
+  vtkPathTracedVolumeMapper* self, vtkImageData* input, vtkDataArray*& scalars)
 {
   (void)self;
   scalars = nullptr;
   if (!input)
   {
-    vtkErrorWithObjectMacro(self,
-      "No input volume: connect a vtkImageData with SetInputConnection() or SetInputData().");
+    vtkErrorWithObjectMacro(
+      self, "No input volume: connect a vtkImageData with SetInputConnection() or SetInputData().");
     return false;
   }
   int dims[3];
   input->GetDimensions(dims);
   if (dims[0] < 2 || dims[1] < 2 || dims[2] < 2)
   {
-    vtkErrorWithObjectMacro(self, "The input volume has dimensions " << dims[0] << "x" << dims[1] << "x"
-                                                                    << dims[2]
-                                                                    << "; path tracing needs at least 2 "
-                                                                       "samples along each axis (an empty "
-                                                                       "extent or a 2D image cannot be rendered).");
+    vtkErrorWithObjectMacro(self,
+      "The input volume has dimensions " << dims[0] << "x" << dims[1] << "x" << dims[2]
+                                         << "; path tracing needs at least 2 "
+                                            "samples along each axis (an empty "
+                                            "extent or a 2D image cannot be rendered).");
     return false;
   }
   scalars = input->GetPointData()->GetScalars();
@@ -293,11 +296,12 @@ bool ReportInputProblem(vtkPathTracedVolumeMapper* self, vtkImageData* input, vt
   }
   if (scalars->GetNumberOfComponents() != 1)
   {
-    vtkErrorWithObjectMacro(self, "The input scalars '" << (scalars->GetName() ? scalars->GetName() : "")
-                                                        << "' have " << scalars->GetNumberOfComponents()
-                                                        << " components; the mapper renders single-component "
-                                                           "data. Extract one with vtkImageExtractComponents or "
-                                                           "compute a magnitude with vtkImageMagnitude first.");
+    vtkErrorWithObjectMacro(self,
+      "The input scalars '" << (scalars->GetName() ? scalars->GetName() : "") << "' have "
+                            << scalars->GetNumberOfComponents()
+                            << " components; the mapper renders single-component "
+                               "data. Extract one with vtkImageExtractComponents or "
+                               "compute a magnitude with vtkImageMagnitude first.");
     return false;
   }
   return true;
@@ -306,13 +310,15 @@ bool ReportInputProblem(vtkPathTracedVolumeMapper* self, vtkImageData* input, vt
 
 // Prepares the kernel scene from the input, property, environment, lights and settings.
 // Returns false (after reporting why) when nothing can be rendered.
-bool vtkPathTracedVolumeMapper::PrepareScene(vtkVolume* volume, vtkLightCollection* lights, hv::SceneView& scene)
+bool vtkPathTracedVolumeMapper::PrepareScene(
+  vtkVolume* volume, vtkLightCollection* lights, hv::SceneView& scene)
 {
   vtkPathTracedVolumeMapper* self = this;
   vtkInternals* internals = this->Internals.get();
   if (!volume)
   {
-    vtkErrorWithObjectMacro(self, "No vtkVolume given: the mapper needs the volume's property and matrix.");
+    vtkErrorWithObjectMacro(
+      self, "No vtkVolume given: the mapper needs the volume's property and matrix.");
     return false;
   }
   if (self->GetNumberOfInputConnections(0) > 0 && self->GetInputAlgorithm(0, 0))
@@ -339,8 +345,9 @@ bool vtkPathTracedVolumeMapper::PrepareScene(vtkVolume* volume, vtkLightCollecti
     scalars->GetRange(range, 0);
     if (!std::isfinite(range[0]) || !std::isfinite(range[1]))
     {
-      vtkErrorWithObjectMacro(self, "The input scalars contain NaN or infinite values; replace them "
-                                    "(e.g. with vtkImageThreshold) before rendering.");
+      vtkErrorWithObjectMacro(self,
+        "The input scalars contain NaN or infinite values; replace them "
+        "(e.g. with vtkImageThreshold) before rendering.");
       return false;
     }
     const double scale = range[1] > range[0] ? 1.0 / (range[1] - range[0]) : 0.0;
@@ -381,25 +388,29 @@ bool vtkPathTracedVolumeMapper::PrepareScene(vtkVolume* volume, vtkLightCollecti
   internals->IndexToWorld = indexToWorldGlm;
 
   // 3. Classification: the transfer functions as tables over the scalar range.
-  const bool gradientOpacity = property->HasGradientOpacity(0) && !property->GetDisableGradientOpacity(0);
+  const bool gradientOpacity =
+    property->HasGradientOpacity(0) && !property->GetDisableGradientOpacity(0);
   if (internals->TransferTime != property->GetMTime() ||
     internals->TransferDensityScale != self->GetDensityScale() ||
-    internals->TransferCellSize != self->GetMacrocellSize() ||
-    (gradientOpacity && linearChanged) || gradientOpacity != internals->TransferGradientOpacity)
+    internals->TransferCellSize != self->GetMacrocellSize() || (gradientOpacity && linearChanged) ||
+    gradientOpacity != internals->TransferGradientOpacity)
   {
     const double* range = internals->ScalarRange;
     std::vector<float> opacity(TransferFunctionTableSize);
     std::vector<float> albedo(3 * TransferFunctionTableSize);
     const double high = range[1] > range[0] ? range[1] : range[0] + 1.0;
-    property->GetScalarOpacity(0)->GetTable(range[0], high, TransferFunctionTableSize, opacity.data());
+    property->GetScalarOpacity(0)->GetTable(
+      range[0], high, TransferFunctionTableSize, opacity.data());
     if (property->GetColorChannels(0) == 3)
     {
-      property->GetRGBTransferFunction(0)->GetTable(range[0], high, TransferFunctionTableSize, albedo.data());
+      property->GetRGBTransferFunction(0)->GetTable(
+        range[0], high, TransferFunctionTableSize, albedo.data());
     }
     else
     {
       std::vector<float> gray(TransferFunctionTableSize);
-      property->GetGrayTransferFunction(0)->GetTable(range[0], high, TransferFunctionTableSize, gray.data());
+      property->GetGrayTransferFunction(0)->GetTable(
+        range[0], high, TransferFunctionTableSize, gray.data());
       for (int i = 0; i < TransferFunctionTableSize; ++i)
       {
         albedo[3 * i] = albedo[3 * i + 1] = albedo[3 * i + 2] = gray[i];
@@ -430,9 +441,10 @@ bool vtkPathTracedVolumeMapper::PrepareScene(vtkVolume* volume, vtkLightCollecti
     internals->Transparent = internals->Grid.isTransparent();
     if (internals->Transparent)
     {
-      vtkWarningWithObjectMacro(self, "The scalar opacity transfer function (times DensityScale "
-          << self->GetDensityScale() << ") is zero over the data range [" << range[0] << ", " << range[1]
-          << "]: the volume is invisible. Add opacity points inside the data range.");
+      vtkWarningWithObjectMacro(self,
+        "The scalar opacity transfer function (times DensityScale "
+          << self->GetDensityScale() << ") is zero over the data range [" << range[0] << ", "
+          << range[1] << "]: the volume is invisible. Add opacity points inside the data range.");
     }
   }
 
@@ -445,14 +457,17 @@ bool vtkPathTracedVolumeMapper::PrepareScene(vtkVolume* volume, vtkLightCollecti
     const double* spacing = input->GetSpacing();
     for (int axis = 0; axis < 3; ++axis)
     {
-      low[axis] = static_cast<float>((planes[2 * axis] - origin[axis]) / spacing[axis] - internals->Extent[2 * axis]);
-      high[axis] = static_cast<float>((planes[2 * axis + 1] - origin[axis]) / spacing[axis] - internals->Extent[2 * axis]);
+      low[axis] = static_cast<float>(
+        (planes[2 * axis] - origin[axis]) / spacing[axis] - internals->Extent[2 * axis]);
+      high[axis] = static_cast<float>(
+        (planes[2 * axis + 1] - origin[axis]) / spacing[axis] - internals->Extent[2 * axis]);
       if (low[axis] > high[axis])
       {
         std::swap(low[axis], high[axis]);
       }
     }
-    internals->Grid.setCropping(self->GetCropping() != 0, low, high, self->GetCroppingRegionFlags());
+    internals->Grid.setCropping(
+      self->GetCropping() != 0, low, high, self->GetCroppingRegionFlags());
   }
   internals->Grid.setSurfaceFactor(static_cast<float>(self->GetSurfaceScatteringFactor()));
   scene.volume = internals->Grid.view();
@@ -465,9 +480,9 @@ bool vtkPathTracedVolumeMapper::PrepareScene(vtkVolume* volume, vtkLightCollecti
     planesTime = planes->GetMTime();
     if (planes->GetNumberOfItems() > hv::MaximumClippingPlanes)
     {
-      vtkWarningWithObjectMacro(self, "Only the first " << hv::MaximumClippingPlanes << " of "
-                                                        << planes->GetNumberOfItems()
-                                                        << " clipping planes are used.");
+      vtkWarningWithObjectMacro(self,
+        "Only the first " << hv::MaximumClippingPlanes << " of " << planes->GetNumberOfItems()
+                          << " clipping planes are used.");
     }
     for (int i = 0; i < std::min(planes->GetNumberOfItems(), hv::MaximumClippingPlanes); ++i)
     {
@@ -504,8 +519,9 @@ bool vtkPathTracedVolumeMapper::PrepareScene(vtkVolume* volume, vtkLightCollecti
       map->GetDimensions(dims);
       if (!radiance || radiance->GetNumberOfComponents() < 3 || dims[2] != 1)
       {
-        vtkErrorWithObjectMacro(self, "The environment map must be a 2D vtkImageData with RGB or RGBA point "
-                                      "scalars (linear radiance); using the uniform environment instead.");
+        vtkErrorWithObjectMacro(self,
+          "The environment map must be a 2D vtkImageData with RGB or RGBA point "
+          "scalars (linear radiance); using the uniform environment instead.");
       }
       else
       {
@@ -513,25 +529,29 @@ bool vtkPathTracedVolumeMapper::PrepareScene(vtkVolume* volume, vtkLightCollecti
         const int height = dims[1];
         std::vector<float> rgb(static_cast<std::size_t>(width) * height * 3);
         // VTK images start with the bottom row; the kernels' maps start at the zenith.
-        vtkSMPTools::For(0, height, [&](vtkIdType begin, vtkIdType end) {
-          for (vtkIdType j = begin; j < end; ++j)
+        vtkSMPTools::For(0, height,
+          [&](vtkIdType begin, vtkIdType end)
           {
-            for (int i = 0; i < width; ++i)
+            for (vtkIdType j = begin; j < end; ++j)
             {
-              const vtkIdType source = j * width + i;
-              float* target = rgb.data() + 3 * ((static_cast<std::size_t>(height - 1 - j)) * width + i);
-              for (int c = 0; c < 3; ++c)
+              for (int i = 0; i < width; ++i)
               {
-                target[c] = static_cast<float>(radiance->GetComponent(source, c));
+                const vtkIdType source = j * width + i;
+                float* target =
+                  rgb.data() + 3 * ((static_cast<std::size_t>(height - 1 - j)) * width + i);
+                for (int c = 0; c < 3; ++c)
+                {
+                  target[c] = static_cast<float>(radiance->GetComponent(source, c));
+                }
               }
             }
-          }
-        });
-        const std::string problem = internals->Environment.setRadiance(width, height, std::move(rgb));
+          });
+        const std::string problem =
+          internals->Environment.setRadiance(width, height, std::move(rgb));
         if (!problem.empty())
         {
-          vtkErrorWithObjectMacro(self, "Unusable environment map: " << problem
-                                                                     << ". Using the uniform environment instead.");
+          vtkErrorWithObjectMacro(self,
+            "Unusable environment map: " << problem << ". Using the uniform environment instead.");
           internals->Environment.clearRadiance();
         }
         else
@@ -551,7 +571,8 @@ bool vtkPathTracedVolumeMapper::PrepareScene(vtkVolume* volume, vtkLightCollecti
   internals->Environment.setUniformRadiance(glm::vec3(uniform[0], uniform[1], uniform[2]));
   internals->Environment.setScale(static_cast<float>(self->GetEnvironmentIntensity()));
   internals->Environment.setImportanceSampling(self->GetEnvironmentImportanceSampling());
-  internals->Environment.setWorldToMap(glm::transpose(glm::mat3(ToGlm(self->GetEnvironmentToWorldMatrix()))));
+  internals->Environment.setWorldToMap(
+    glm::transpose(glm::mat3(ToGlm(self->GetEnvironmentToWorldMatrix()))));
   scene.environment = internals->Environment.view();
   internals->Environment.sphericalHarmonics(scene.irradianceSH);
 
@@ -570,7 +591,8 @@ bool vtkPathTracedVolumeMapper::PrepareScene(vtkVolume* volume, vtkLightCollecti
       }
       if (scene.lightCount == hv::MaximumLights)
       {
-        vtkWarningWithObjectMacro(self, "Only the first " << hv::MaximumLights << " lights are used.");
+        vtkWarningWithObjectMacro(
+          self, "Only the first " << hv::MaximumLights << " lights are used.");
         break;
       }
       hv::PointLightView& target = scene.lights[scene.lightCount++];
@@ -578,7 +600,8 @@ bool vtkPathTracedVolumeMapper::PrepareScene(vtkVolume* volume, vtkLightCollecti
       light->GetTransformedPosition(position);
       light->GetTransformedFocalPoint(focal);
       light->GetDiffuseColor(color);
-      target.intensity = static_cast<float>(light->GetIntensity()) * glm::vec3(color[0], color[1], color[2]);
+      target.intensity =
+        static_cast<float>(light->GetIntensity()) * glm::vec3(color[0], color[1], color[2]);
       const glm::vec3 p(position[0], position[1], position[2]);
       const glm::vec3 f(focal[0], focal[1], focal[2]);
       const glm::vec3 axis = glm::length(p - f) > 0.0f ? glm::normalize(p - f) : glm::vec3(0, 0, 1);
@@ -591,7 +614,8 @@ bool vtkPathTracedVolumeMapper::PrepareScene(vtkVolume* volume, vtkLightCollecti
         target.attenuation = glm::vec3(attenuation[0], attenuation[1], attenuation[2]);
         if (light->GetConeAngle() < 90.0)
         {
-          target.spotCosCutoff = static_cast<float>(std::cos(vtkMath::RadiansFromDegrees(light->GetConeAngle())));
+          target.spotCosCutoff =
+            static_cast<float>(std::cos(vtkMath::RadiansFromDegrees(light->GetConeAngle())));
           target.spotExponent = static_cast<float>(light->GetExponent());
         }
       }
@@ -611,16 +635,16 @@ bool vtkPathTracedVolumeMapper::PrepareScene(vtkVolume* volume, vtkLightCollecti
   scene.environmentVisible = self->GetEnvironmentVisible();
   double spacing[3];
   input->GetSpacing(spacing);
-  scene.stepLength = static_cast<float>(
-    self->GetStepLengthFactor() * std::min({ std::abs(spacing[0]), std::abs(spacing[1]), std::abs(spacing[2]) }));
+  scene.stepLength = static_cast<float>(self->GetStepLengthFactor() *
+    std::min({ std::abs(spacing[0]), std::abs(spacing[1]), std::abs(spacing[2]) }));
   scene.ambient = static_cast<float>(property->GetAmbient(0));
   scene.diffuse = static_cast<float>(property->GetDiffuse(0));
   scene.specular = static_cast<float>(property->GetSpecular(0));
   scene.specularPower = static_cast<float>(property->GetSpecularPower(0));
 
-  internals->SceneKey = std::max({ scalarsTime, property->GetMTime(), volume->GetMTime(),
-    volume->GetMatrix()->GetMTime(), environmentTime, self->GetEnvironmentToWorldMatrix()->GetMTime(),
-    lightsTime, planesTime });
+  internals->SceneKey = std::max(
+    { scalarsTime, property->GetMTime(), volume->GetMTime(), volume->GetMatrix()->GetMTime(),
+      environmentTime, self->GetEnvironmentToWorldMatrix()->GetMTime(), lightsTime, planesTime });
   return true;
 }
 
@@ -712,9 +736,10 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
     vtkImageData* output = state.Output;
     int dims[3];
     output->GetDimensions(dims);
-    const bool restart = !self->GetProgressiveAccumulation() || !state.Valid || dims[0] != view.width ||
-      dims[1] != view.height || state.View != view.view || state.Projection != view.projection ||
-      state.SceneKey != internals->SceneKey || !(state.Settings == settings);
+    const bool restart = !self->GetProgressiveAccumulation() || !state.Valid ||
+      dims[0] != view.width || dims[1] != view.height || state.View != view.view ||
+      state.Projection != view.projection || state.SceneKey != internals->SceneKey ||
+      !(state.Settings == settings);
     if (restart)
     {
       state.AccumulatedFrames = 0;
@@ -753,42 +778,45 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
     int rectangle[4] = { 0, 0, view.width, view.height };
     if (!scene.environmentVisible)
     {
-      hv::occupiedScreenRectangle(scene.volume, view, rectangle[0], rectangle[1], rectangle[2], rectangle[3]);
+      hv::occupiedScreenRectangle(
+        scene.volume, view, rectangle[0], rectangle[1], rectangle[2], rectangle[3]);
     }
     const int bandHeight = (view.height + bandsPerEye - 1) / bandsPerEye;
     for (int band = 0; band < bandsPerEye; ++band)
     {
       const int rowBegin = band * bandHeight;
       const int rowEnd = std::min(view.height, rowBegin + bandHeight);
-      vtkSMPTools::For(rowBegin, rowEnd, 1, [&](vtkIdType begin, vtkIdType end) {
-        for (vtkIdType y = begin; y < end; ++y)
+      vtkSMPTools::For(rowBegin, rowEnd, 1,
+        [&](vtkIdType begin, vtkIdType end)
         {
-          for (int x = 0; x < view.width; ++x)
+          for (vtkIdType y = begin; y < end; ++y)
           {
-            const vtkIdType pixel = y * view.width + x;
-            const bool inside =
-              x >= rectangle[0] && x < rectangle[2] && y >= rectangle[1] && y < rectangle[3];
-            const hv::PixelResult r = inside
-              ? hv::renderPixel(scene, view, x, static_cast<int>(y), static_cast<std::uint32_t>(eyeIndex),
-                  frameIndex, seed, samplesPerPixel)
-              : hv::PixelResult();
-            for (int c = 0; c < 4; ++c)
+            for (int x = 0; x < view.width; ++x)
             {
-              sum[4 * pixel + c] += r.radiance[c];
-              radiance[4 * pixel + c] = sum[4 * pixel + c] * inverseFrames;
-            }
-            valid[pixel] = static_cast<unsigned char>(r.hit);
-            depth[pixel] = r.hit ? r.depth : 0.0f;
-            gradient[pixel] = r.gradientMagnitude;
-            for (int c = 0; c < 3; ++c)
-            {
-              position[3 * pixel + c] = r.firstScatterPosition[c];
-              albedo[3 * pixel + c] = r.albedo[c];
-              normal[3 * pixel + c] = r.normal[c];
+              const vtkIdType pixel = y * view.width + x;
+              const bool inside =
+                x >= rectangle[0] && x < rectangle[2] && y >= rectangle[1] && y < rectangle[3];
+              const hv::PixelResult r = inside
+                ? hv::renderPixel(scene, view, x, static_cast<int>(y),
+                    static_cast<std::uint32_t>(eyeIndex), frameIndex, seed, samplesPerPixel)
+                : hv::PixelResult();
+              for (int c = 0; c < 4; ++c)
+              {
+                sum[4 * pixel + c] += r.radiance[c];
+                radiance[4 * pixel + c] = sum[4 * pixel + c] * inverseFrames;
+              }
+              valid[pixel] = static_cast<unsigned char>(r.hit);
+              depth[pixel] = r.hit ? r.depth : 0.0f;
+              gradient[pixel] = r.gradientMagnitude;
+              for (int c = 0; c < 3; ++c)
+              {
+                position[3 * pixel + c] = r.firstScatterPosition[c];
+                albedo[3 * pixel + c] = r.albedo[c];
+                normal[3 * pixel + c] = r.normal[c];
+              }
             }
           }
-        }
-      });
+        });
       self->UpdateProgress((e + (band + 1.0) / bandsPerEye) / eyeCount);
     }
     state.AccumulatedFrames = frames;
@@ -812,7 +840,8 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
 
 namespace
 {
-bool CheckMatrices(vtkPathTracedVolumeMapper* self, vtkMatrix4x4* view, vtkMatrix4x4* projection, int width, int height)
+bool CheckMatrices(vtkPathTracedVolumeMapper* self, vtkMatrix4x4* view, vtkMatrix4x4* projection,
+  int width, int height)
 {
   if (!view || !projection)
   {
@@ -821,15 +850,18 @@ bool CheckMatrices(vtkPathTracedVolumeMapper* self, vtkMatrix4x4* view, vtkMatri
   }
   if (width < 1 || height < 1)
   {
-    vtkErrorWithObjectMacro(self, "The image size " << width << "x" << height << " is empty; give a positive width and height.");
+    vtkErrorWithObjectMacro(self,
+      "The image size " << width << "x" << height
+                        << " is empty; give a positive width and height.");
     return false;
   }
   vtkNew<vtkMatrix4x4> product;
   vtkMatrix4x4::Multiply4x4(projection, view, product);
   if (std::abs(product->Determinant()) < 1e-30)
   {
-    vtkErrorWithObjectMacro(self, "The projection x view matrix is singular; pass OpenGL-convention view and "
-                                  "projection matrices (e.g. from vtkCamera or the headset).");
+    vtkErrorWithObjectMacro(self,
+      "The projection x view matrix is singular; pass OpenGL-convention view and "
+      "projection matrices (e.g. from vtkCamera or the headset).");
     return false;
   }
   return true;
@@ -895,8 +927,9 @@ void vtkPathTracedVolumeMapper::Render(vtkRenderer* renderer, vtkVolume* volume)
   auto* window = vtkOpenGLRenderWindow::SafeDownCast(renderer->GetRenderWindow());
   if (!window)
   {
-    vtkErrorMacro("vtkPathTracedVolumeMapper draws into a vtkOpenGLRenderWindow; for other windows use "
-                  "RenderStereoFrame() and GetEyeOutput().");
+    vtkErrorMacro(
+      "vtkPathTracedVolumeMapper draws into a vtkOpenGLRenderWindow; for other windows use "
+      "RenderStereoFrame() and GetEyeOutput().");
     return;
   }
   int width, height, originX, originY;
@@ -930,7 +963,8 @@ void vtkPathTracedVolumeMapper::Render(vtkRenderer* renderer, vtkVolume* volume)
   view->DeepCopy(camera->GetModelViewTransformMatrix());
   projection->DeepCopy(camera->GetProjectionTransformMatrix(aspect, -1, 1));
   const hv::EyeView eyeView = MakeEyeView(view, projection, width, height);
-  const bool lastPassOfFrame = !stereo || displayedEye == 1 || window->GetStereoType() == VTK_STEREO_LEFT;
+  const bool lastPassOfFrame =
+    !stereo || displayedEye == 1 || window->GetStereoType() == VTK_STEREO_LEFT;
   this->RenderEyes(scene, &displayedEye, &eyeView, 1, this->FrameIndex);
   if (lastPassOfFrame)
   {
@@ -961,7 +995,8 @@ void vtkPathTracedVolumeMapper::Render(vtkRenderer* renderer, vtkVolume* volume)
   if (!internals.Quad)
   {
     std::string fragment = vtkOpenGLRenderUtilities::GetFullScreenQuadFragmentShaderTemplate();
-    vtkShaderProgram::Substitute(fragment, "//VTK::FSQ::Decl", "uniform sampler2D radianceTexture;\n");
+    vtkShaderProgram::Substitute(
+      fragment, "//VTK::FSQ::Decl", "uniform sampler2D radianceTexture;\n");
     vtkShaderProgram::Substitute(
       fragment, "//VTK::FSQ::Impl", "  gl_FragData[0] = texture(radianceTexture, texCoord);\n");
     internals.Quad = new vtkOpenGLQuadHelper(window, nullptr, fragment.c_str(), nullptr);
@@ -993,7 +1028,8 @@ void vtkPathTracedVolumeMapper::Render(vtkRenderer* renderer, vtkVolume* volume)
 bool vtkPathTracedVolumeMapper::ToneMapEye(int eye, unsigned char* target)
 {
   vtkImageData* image = this->Internals->Eyes[eye].Output;
-  vtkFloatArray* radiance = vtkFloatArray::SafeDownCast(image->GetPointData()->GetArray("Radiance"));
+  vtkFloatArray* radiance =
+    vtkFloatArray::SafeDownCast(image->GetPointData()->GetArray("Radiance"));
   if (!radiance || radiance->GetNumberOfTuples() == 0)
   {
     return false;
@@ -1001,14 +1037,17 @@ bool vtkPathTracedVolumeMapper::ToneMapEye(int eye, unsigned char* target)
   // Un-premultiply, exposure, operator, sRGB, premultiply again: the quad is blended as
   // premultiplied colour.
   const float exposure = static_cast<float>(std::pow(2.0, this->Exposure));
-  const int toneOperator = this->ToneMapping == TONE_MAPPING_ACES ? hv::ToneMapACES : hv::ToneMapClamp;
+  const int toneOperator =
+    this->ToneMapping == TONE_MAPPING_ACES ? hv::ToneMapACES : hv::ToneMapClamp;
   const float* source = radiance->GetPointer(0);
-  vtkSMPTools::For(0, radiance->GetNumberOfTuples(), [&](vtkIdType begin, vtkIdType end) {
-    for (vtkIdType i = begin; i < end; ++i)
+  vtkSMPTools::For(0, radiance->GetNumberOfTuples(),
+    [&](vtkIdType begin, vtkIdType end)
     {
-      hv::toneMapPixel(source + 4 * i, exposure, toneOperator, target + 4 * i);
-    }
-  });
+      for (vtkIdType i = begin; i < end; ++i)
+      {
+        hv::toneMapPixel(source + 4 * i, exposure, toneOperator, target + 4 * i);
+      }
+    });
   return true;
 }
 
@@ -1063,21 +1102,24 @@ void vtkPathTracedVolumeMapper::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "DensityScale: " << this->DensityScale << "\n";
   os << indent << "SurfaceScatteringFactor: " << this->SurfaceScatteringFactor << "\n";
   os << indent << "Seed: " << this->Seed << "\n";
-  os << indent << "ProgressiveAccumulation: " << (this->ProgressiveAccumulation ? "On" : "Off") << "\n";
-  os << indent << "FrameIndex: " << this->FrameIndex << "\n";
-  os << indent << "EnvironmentMap: " << (this->GetNumberOfInputConnections(1) ? "connected" : "none (uniform)")
+  os << indent << "ProgressiveAccumulation: " << (this->ProgressiveAccumulation ? "On" : "Off")
      << "\n";
+  os << indent << "FrameIndex: " << this->FrameIndex << "\n";
+  os << indent << "EnvironmentMap: "
+     << (this->GetNumberOfInputConnections(1) ? "connected" : "none (uniform)") << "\n";
   os << indent << "EnvironmentToWorldMatrix:\n";
   this->EnvironmentToWorldMatrix->PrintSelf(os, indent.GetNextIndent());
   os << indent << "EnvironmentRadiance: (" << this->EnvironmentRadiance[0] << ", "
      << this->EnvironmentRadiance[1] << ", " << this->EnvironmentRadiance[2] << ")\n";
   os << indent << "EnvironmentIntensity: " << this->EnvironmentIntensity << "\n";
   os << indent << "EnvironmentVisible: " << (this->EnvironmentVisible ? "On" : "Off") << "\n";
-  os << indent << "EnvironmentImportanceSampling: " << (this->EnvironmentImportanceSampling ? "On" : "Off")
+  os << indent
+     << "EnvironmentImportanceSampling: " << (this->EnvironmentImportanceSampling ? "On" : "Off")
      << "\n";
   os << indent << "UseRendererLights: " << (this->UseRendererLights ? "On" : "Off") << "\n";
   os << indent << "StepLengthFactor: " << this->StepLengthFactor << "\n";
   os << indent << "MacrocellSize: " << this->MacrocellSize << "\n";
   os << indent << "Exposure: " << this->Exposure << "\n";
-  os << indent << "ToneMapping: " << (this->ToneMapping == TONE_MAPPING_ACES ? "ACES" : "Clamp") << "\n";
+  os << indent << "ToneMapping: " << (this->ToneMapping == TONE_MAPPING_ACES ? "ACES" : "Clamp")
+     << "\n";
 }

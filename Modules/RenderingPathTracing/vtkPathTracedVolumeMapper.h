@@ -83,7 +83,10 @@ public:
    */
   vtkSetClampMacro(IlluminationModel, int, EMISSION_ABSORPTION, PATH_TRACED);
   vtkGetMacro(IlluminationModel, int);
-  void SetIlluminationModelToEmissionAbsorption() { this->SetIlluminationModel(EMISSION_ABSORPTION); }
+  void SetIlluminationModelToEmissionAbsorption()
+  {
+    this->SetIlluminationModel(EMISSION_ABSORPTION);
+  }
   void SetIlluminationModelToGradientPhong() { this->SetIlluminationModel(GRADIENT_PHONG); }
   void SetIlluminationModelToPrefilteredEnvironment()
   {
@@ -286,8 +289,8 @@ public:
   /**
    * Renders one eye off-screen (eye 0 = left or mono, 1 = right).
    */
-  int RenderEye(vtkVolume* volume, int eye, vtkMatrix4x4* view, vtkMatrix4x4* projection,
-    int width, int height, vtkLightCollection* lights = nullptr);
+  int RenderEye(vtkVolume* volume, int eye, vtkMatrix4x4* view, vtkMatrix4x4* projection, int width,
+    int height, vtkLightCollection* lights = nullptr);
 
   /**
    * The last image of an eye (0 = left/mono, 1 = right). Point data: "Radiance" (float RGBA,

@@ -2,9 +2,9 @@
 // Copyright (c) 2026 the HoloVolume developers.
 //
 // holovolume-benchmark: the cost of one HoloLens 2 stereo frame of the path tracer, measured
-// side by side, in the same run, with VTK's own volume ray casters (vtkFixedPointVolumeRayCastMapper
-// on the CPU, vtkOpenGLGPUVolumeRayCastMapper on whatever OpenGL there is) rendering the same
-// data with the same transfer function from the same two eye views.
+// side by side, in the same run, with VTK's own volume ray casters
+// (vtkFixedPointVolumeRayCastMapper on the CPU, vtkOpenGLGPUVolumeRayCastMapper on whatever OpenGL
+// there is) rendering the same data with the same transfer function from the same two eye views.
 #include "vtkHoloVolumeScene.h"
 
 #include "vtkCallbackCommand.h"
@@ -127,7 +127,8 @@ bool ParseModels(const std::string& list, std::vector<std::string>& models)
     if (std::find(known.begin(), known.end(), name) == known.end())
     {
       std::cerr << "holovolume-benchmark: unknown model '" << name
-                << "'; use path-traced, emission-absorption, gradient-phong, prefiltered-environment or all\n";
+                << "'; use path-traced, emission-absorption, gradient-phong, "
+                   "prefiltered-environment or all\n";
       return false;
     }
     models.push_back(name);
@@ -140,7 +141,8 @@ bool ParseArguments(int argc, char* argv[], Options& options)
   for (int i = 1; i < argc; ++i)
   {
     const std::string argument = argv[i];
-    auto value = [&]() -> const char* {
+    auto value = [&]() -> const char*
+    {
       if (i + 1 >= argc)
       {
         std::cerr << "holovolume-benchmark: " << argument << " needs a value (see --help)\n";
@@ -186,15 +188,15 @@ bool ParseArguments(int argc, char* argv[], Options& options)
       return false;
     }
   }
-  if (options.Width < 1 || options.Height < 1 || options.SamplesPerPixel < 1 || options.Frames < 1 ||
-    options.Threads < 0)
+  if (options.Width < 1 || options.Height < 1 || options.SamplesPerPixel < 1 ||
+    options.Frames < 1 || options.Threads < 0)
   {
-    std::cerr << "holovolume-benchmark: width, height, spp and frames must be positive, threads >= 0\n";
+    std::cerr
+      << "holovolume-benchmark: width, height, spp and frames must be positive, threads >= 0\n";
     return false;
   }
   return true;
 }
-
 
 std::string BaseName(const std::string& path)
 {
@@ -216,9 +218,9 @@ double Mean(const std::vector<double>& values)
 
 double MillisecondsSince(std::chrono::steady_clock::time_point start)
 {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+    .count();
 }
-
 
 // One image per eye reduced to a coverage mask (1 where the volume shows), to check after the
 // timing that every mapper drew the same silhouette, i.e. really rendered the same views.
@@ -330,9 +332,9 @@ const char* ModelLabel(const std::string& model)
   return "PathTraced";
 }
 
-Result TimePathTracer(vtkPathTracedVolumeMapper* mapper, vtkVolume* volume, const std::string& model,
-  vtkMatrix4x4* const* views, vtkMatrix4x4* const* projections, vtkLightCollection* lights,
-  const Options& options)
+Result TimePathTracer(vtkPathTracedVolumeMapper* mapper, vtkVolume* volume,
+  const std::string& model, vtkMatrix4x4* const* views, vtkMatrix4x4* const* projections,
+  vtkLightCollection* lights, const Options& options)
 {
   Result result;
   result.Mapper = std::string("vtkPathTracedVolumeMapper (") + ModelLabel(model) + ")";
@@ -350,9 +352,10 @@ Result TimePathTracer(vtkPathTracedVolumeMapper* mapper, vtkVolume* volume, cons
   // Only gradient-Phong uses the key light, as in the holovolume application.
   vtkLightCollection* modelLights = model == "gradient-phong" ? lights : nullptr;
 
-  auto renderStereoFrame = [&]() {
-    return mapper->RenderStereoFrame(volume, views[0], projections[0], views[1], projections[1], options.Width,
-      options.Height, modelLights);
+  auto renderStereoFrame = [&]()
+  {
+    return mapper->RenderStereoFrame(volume, views[0], projections[0], views[1], projections[1],
+      options.Width, options.Height, modelLights);
   };
   std::cerr << "  " << result.Mapper << ": first frame..." << std::flush;
   auto start = std::chrono::steady_clock::now();
@@ -363,8 +366,8 @@ Result TimePathTracer(vtkPathTracedVolumeMapper* mapper, vtkVolume* volume, cons
     return result;
   }
   result.FirstFrameMs = MillisecondsSince(start);
-  std::cerr << " " << static_cast<int>(result.FirstFrameMs) << " ms; timing " << options.Frames << " frames..."
-            << std::flush;
+  std::cerr << " " << static_cast<int>(result.FirstFrameMs) << " ms; timing " << options.Frames
+            << " frames..." << std::flush;
   for (int frame = 0; frame < options.Frames; ++frame)
   {
     start = std::chrono::steady_clock::now();
@@ -404,8 +407,9 @@ Result TimePathTracer(vtkPathTracedVolumeMapper* mapper, vtkVolume* volume, cons
 
 // Times a VTK volume mapper in an off-screen render window of one eye's size, rendering the
 // left and then the right eye camera per stereo frame.
-Result TimeWindowMapper(const std::string& label, const std::string& fileTag, vtkVolumeMapper* mapper,
-  vtkImageData* volumeData, vtkVolumeProperty* property, vtkCamera* const* eyeCameras, const Options& options)
+Result TimeWindowMapper(const std::string& label, const std::string& fileTag,
+  vtkVolumeMapper* mapper, vtkImageData* volumeData, vtkVolumeProperty* property,
+  vtkCamera* const* eyeCameras, const Options& options)
 {
   Result result;
   result.Mapper = label;
@@ -453,14 +457,16 @@ Result TimeWindowMapper(const std::string& label, const std::string& fileTag, vt
   countCallback->SetClientData(&rayCasts);
   mapper->AddObserver(vtkCommand::VolumeMapperRenderEndEvent, countCallback);
 
-  auto renderEye = [&](int eye) {
+  auto renderEye = [&](int eye)
+  {
     // A new camera and a Modified() one: nothing in the pipeline may treat the frame as
     // unchanged (the per-frame event count below checks that it was not).
     eyeCameras[eye]->Modified();
     renderer->SetActiveCamera(eyeCameras[eye]);
     window->Render();
   };
-  auto renderStereoFrame = [&]() {
+  auto renderStereoFrame = [&]()
+  {
     renderEye(0);
     renderEye(1);
     // OpenGL may still be drawing when Render() returns.
@@ -477,8 +483,8 @@ Result TimeWindowMapper(const std::string& label, const std::string& fileTag, vt
     result.Note = "failed: " + error;
     return result;
   }
-  std::cerr << " " << static_cast<int>(result.FirstFrameMs) << " ms; timing " << options.Frames << " frames..."
-            << std::flush;
+  std::cerr << " " << static_cast<int>(result.FirstFrameMs) << " ms; timing " << options.Frames
+            << " frames..." << std::flush;
   rayCasts = 0;
   for (int frame = 0; frame < options.Frames; ++frame)
   {
@@ -514,7 +520,8 @@ Result TimeWindowMapper(const std::string& label, const std::string& fileTag, vt
     result.Masks[eye] = CoverageMask(grab->GetOutput(), 8);
     if (!options.SaveImages.empty())
     {
-      WritePNG(grab->GetOutput(), options.SaveImages + "/" + fileTag + (eye == 0 ? "-left.png" : "-right.png"));
+      WritePNG(grab->GetOutput(),
+        options.SaveImages + "/" + fileTag + (eye == 0 ? "-left.png" : "-right.png"));
     }
   }
   if (CoveredFraction(result.Masks[0]) == 0.0 && CoveredFraction(result.Masks[1]) == 0.0)
@@ -535,7 +542,8 @@ int main(int argc, char* argv[])
   }
 
   // One thread count for every CPU renderer, so the comparison is per core-second.
-  const int threads = options.Threads > 0 ? options.Threads : std::max(1u, std::thread::hardware_concurrency());
+  const int threads =
+    options.Threads > 0 ? options.Threads : std::max(1u, std::thread::hardware_concurrency());
   vtkSMPTools::Initialize(threads);
   // Mesa reads LP_NUM_THREADS when it creates the llvmpipe screen, i.e. at the first window.
   setenv("LP_NUM_THREADS", std::to_string(threads).c_str(), 0);
@@ -543,7 +551,9 @@ int main(int argc, char* argv[])
   if (!holovolume::FileExists(options.Volume))
   {
     std::cerr << "holovolume-benchmark: volume '" << options.Volume << "' not found."
-              << (options.Volume == holovolume::DefaultVolume() ? " Install it with: apt-get install mricron-data" : "")
+              << (options.Volume == holovolume::DefaultVolume()
+                     ? " Install it with: apt-get install mricron-data"
+                     : "")
               << "\n";
     return 1;
   }
@@ -587,14 +597,15 @@ int main(int argc, char* argv[])
     environmentReader->Update();
     if (environmentReader->GetOutput()->GetNumberOfPoints() == 0)
     {
-      std::cerr << "holovolume-benchmark: could not read the environment map '" << options.Environment << "'\n";
+      std::cerr << "holovolume-benchmark: could not read the environment map '"
+                << options.Environment << "'\n";
       return 1;
     }
     pathTracer->SetEnvironmentMapConnection(environmentReader->GetOutputPort());
     int mapDims[3];
     environmentReader->GetOutput()->GetDimensions(mapDims);
-    environmentDescription =
-      BaseName(options.Environment) + " " + std::to_string(mapDims[0]) + "x" + std::to_string(mapDims[1]);
+    environmentDescription = BaseName(options.Environment) + " " + std::to_string(mapDims[0]) +
+      "x" + std::to_string(mapDims[1]);
   }
   vtkNew<vtkMatrix4x4> environmentToWorld;
   holovolume::EnvironmentToRASWorld(environmentToWorld, 0.0);
@@ -616,9 +627,10 @@ int main(int argc, char* argv[])
   vtkNew<vtkCamera> eyeCameras[2];
   for (int eye = 0; eye < 2; ++eye)
   {
-    holovolume::StereoEyeMatrices(
-      camera, aspect, options.InterpupillaryDistance, eye, viewMatrices[eye], projectionMatrices[eye]);
-    holovolume::StereoEyeCamera(camera, aspect, options.InterpupillaryDistance, eye, eyeCameras[eye]);
+    holovolume::StereoEyeMatrices(camera, aspect, options.InterpupillaryDistance, eye,
+      viewMatrices[eye], projectionMatrices[eye]);
+    holovolume::StereoEyeCamera(
+      camera, aspect, options.InterpupillaryDistance, eye, eyeCameras[eye]);
   }
   vtkMatrix4x4* views[2] = { viewMatrices[0], viewMatrices[1] };
   vtkMatrix4x4* projections[2] = { projectionMatrices[0], projectionMatrices[1] };
@@ -634,9 +646,9 @@ int main(int argc, char* argv[])
   lights->AddItem(keyLight);
 
   std::ostringstream header;
-  header << "HoloVolume benchmark: " << BaseName(options.Volume) << " " << dims[0] << "x" << dims[1] << "x" << dims[2]
-         << ", " << options.Width << "x" << options.Height << " per eye, stereo, " << options.SamplesPerPixel
-         << " spp, threads=" << threads;
+  header << "HoloVolume benchmark: " << BaseName(options.Volume) << " " << dims[0] << "x" << dims[1]
+         << "x" << dims[2] << ", " << options.Width << "x" << options.Height << " per eye, stereo, "
+         << options.SamplesPerPixel << " spp, threads=" << threads;
   std::cerr << header.str() << "\n";
 
   std::vector<Result> results;
@@ -661,7 +673,8 @@ int main(int argc, char* argv[])
       {
         Result skipped;
         skipped.Mapper = label;
-        skipped.Note = "skipped: " + reason + "; run under xvfb-run -a -s \"-screen 0 1920x1080x24\"";
+        skipped.Note =
+          "skipped: " + reason + "; run under xvfb-run -a -s \"-screen 0 1920x1080x24\"";
         results.push_back(skipped);
       }
     }
@@ -676,15 +689,17 @@ int main(int argc, char* argv[])
     fixedPoint->SetSampleDistance(1.0);
     fixedPoint->SetImageSampleDistance(1.0);
     fixedPoint->SetNumberOfThreads(threads);
-    results.push_back(TimeWindowMapper("vtkFixedPointVolumeRayCastMapper (shaded)", "fixed-point", fixedPoint,
-      volumeData, property, cameras, options));
+    results.push_back(TimeWindowMapper("vtkFixedPointVolumeRayCastMapper (shaded)", "fixed-point",
+      fixedPoint, volumeData, property, cameras, options));
     if (fixedPoint->GetNumberOfThreads() != threads)
     {
-      results.back().Note = "ran with " + std::to_string(fixedPoint->GetNumberOfThreads()) + " threads";
+      results.back().Note =
+        "ran with " + std::to_string(fixedPoint->GetNumberOfThreads()) + " threads";
     }
 
     // vtkGPUVolumeRayCastMapper::New() gives the OpenGL implementation through the factory.
-    vtkSmartPointer<vtkGPUVolumeRayCastMapper> gpu = vtkSmartPointer<vtkGPUVolumeRayCastMapper>::New();
+    vtkSmartPointer<vtkGPUVolumeRayCastMapper> gpu =
+      vtkSmartPointer<vtkGPUVolumeRayCastMapper>::New();
     gpu->AutoAdjustSampleDistancesOff();
     gpu->LockSampleDistanceToInputSpacingOff();
     gpu->SetSampleDistance(1.0);
@@ -695,7 +710,8 @@ int main(int argc, char* argv[])
       probe->SetOffScreenRendering(1);
       probe->SetSize(16, 16);
       probe->Start();
-      const std::string capabilities = probe->ReportCapabilities() ? probe->ReportCapabilities() : "";
+      const std::string capabilities =
+        probe->ReportCapabilities() ? probe->ReportCapabilities() : "";
       const std::string key = "OpenGL renderer string:";
       const std::string::size_type at = capabilities.find(key);
       if (at != std::string::npos)
@@ -705,24 +721,29 @@ int main(int argc, char* argv[])
       }
     }
     const bool software = rendererName.find("llvmpipe") != std::string::npos;
-    const std::string label =
-      std::string(gpu->GetClassName()) + (software ? " (llvmpipe)" : rendererName.empty() ? "" : " (GPU)");
+    const std::string label = std::string(gpu->GetClassName()) +
+      (software                  ? " (llvmpipe)"
+          : rendererName.empty() ? ""
+                                 : " (GPU)");
     results.push_back(TimeWindowMapper(label, "gpu", gpu, volumeData, property, cameras, options));
   }
 
   // The table.
   std::printf("\n%s\n", header.str().c_str());
-  std::printf("environment %s; SMP backend %s; fixed-point and GPU ray casters: shaded, step 1 voxel, "
-              "full image resolution\n",
+  std::printf(
+    "environment %s; SMP backend %s; fixed-point and GPU ray casters: shaded, step 1 voxel, "
+    "full image resolution\n",
     environmentDescription.c_str(), vtkSMPTools::GetBackend());
   if (!rendererName.empty())
   {
-    std::printf("OpenGL renderer: %s (LP_NUM_THREADS=%s)\n", rendererName.c_str(), std::getenv("LP_NUM_THREADS"));
+    std::printf("OpenGL renderer: %s (LP_NUM_THREADS=%s)\n", rendererName.c_str(),
+      std::getenv("LP_NUM_THREADS"));
   }
-  std::printf("timed frames per mapper: %d after the first; wall-clock, std::chrono::steady_clock\n\n",
+  std::printf(
+    "timed frames per mapper: %d after the first; wall-clock, std::chrono::steady_clock\n\n",
     options.Frames);
-  std::printf("%-46s %12s %24s %10s %20s\n", "mapper", "first frame", "median ms/stereo frame", "mean",
-    "rays or samples/s");
+  std::printf("%-46s %12s %24s %10s %20s\n", "mapper", "first frame", "median ms/stereo frame",
+    "mean", "rays or samples/s");
   const Result* pathTraced = nullptr;
   const Result* fixedPoint = nullptr;
   for (const Result& result : results)
@@ -734,10 +755,12 @@ int main(int argc, char* argv[])
     }
     const double median = Median(result.FrameMs);
     char rate[64];
-    std::snprintf(rate, sizeof(rate), "%.3g %s", result.WorkPerFrame / (median / 1000.0), result.WorkUnit);
+    std::snprintf(
+      rate, sizeof(rate), "%.3g %s", result.WorkPerFrame / (median / 1000.0), result.WorkUnit);
     char first[32];
     std::snprintf(first, sizeof(first), "%.0f ms", result.FirstFrameMs);
-    std::printf("%-46s %12s %24.1f %10.1f %20s\n", result.Mapper.c_str(), first, median, Mean(result.FrameMs), rate);
+    std::printf("%-46s %12s %24.1f %10.1f %20s\n", result.Mapper.c_str(), first, median,
+      Mean(result.FrameMs), rate);
     if (!result.Note.empty())
     {
       std::printf("%-46s (%s)\n", "", result.Note.c_str());
@@ -755,8 +778,8 @@ int main(int argc, char* argv[])
   if (pathTraced && fixedPoint)
   {
     const double ratio = Median(pathTraced->FrameMs) / Median(fixedPoint->FrameMs);
-    std::printf("ratio %s / fixed-point: %.2f (target <= 3: %s)\n", pathTraced->Model.c_str(), ratio,
-      ratio <= 3.0 ? "met" : "NOT met");
+    std::printf("ratio %s / fixed-point: %.2f (target <= 3: %s)\n", pathTraced->Model.c_str(),
+      ratio, ratio <= 3.0 ? "met" : "NOT met");
   }
   else
   {
@@ -767,7 +790,8 @@ int main(int argc, char* argv[])
   if (!results.empty() && results.front().Ran)
   {
     const Result& reference = results.front();
-    std::printf("\nsame-view check (coverage left/right, silhouette IoU with %s):\n", reference.Mapper.c_str());
+    std::printf("\nsame-view check (coverage left/right, silhouette IoU with %s):\n",
+      reference.Mapper.c_str());
     for (const Result& result : results)
     {
       if (!result.Ran)

@@ -34,9 +34,15 @@ public:
   std::size_t count() const { return this->Count; }
   double mean() const { return this->Mean; }
   // Unbiased sample variance of one sample.
-  double variance() const { return this->Count > 1 ? this->M2 / static_cast<double>(this->Count - 1) : 0.0; }
+  double variance() const
+  {
+    return this->Count > 1 ? this->M2 / static_cast<double>(this->Count - 1) : 0.0;
+  }
   // Standard error of the mean.
-  double standardError() const { return std::sqrt(this->variance() / static_cast<double>(this->Count)); }
+  double standardError() const
+  {
+    return std::sqrt(this->variance() / static_cast<double>(this->Count));
+  }
 
 private:
   std::size_t Count = 0;
@@ -45,7 +51,8 @@ private:
 };
 
 // A scalar field given as a function of the continuous voxel index, sampled at the voxels.
-inline std::vector<float> sampleField(const glm::ivec3& dims, const std::function<float(const glm::vec3&)>& f)
+inline std::vector<float> sampleField(
+  const glm::ivec3& dims, const std::function<float(const glm::vec3&)>& f)
 {
   std::vector<float> values(static_cast<std::size_t>(dims.x) * dims.y * dims.z);
   std::size_t n = 0;
@@ -85,8 +92,8 @@ inline double extinctionOf(double alpha, double unitDistance, double densityScal
 
 // Length of the part of the world ray origin + t * direction (t >= 0, unit direction) inside
 // the axis-aligned world box [low, high], computed independently of hv::makeIndexRay.
-inline double boxChordLength(const glm::dvec3& origin, const glm::dvec3& direction, const glm::dvec3& low,
-  const glm::dvec3& high)
+inline double boxChordLength(const glm::dvec3& origin, const glm::dvec3& direction,
+  const glm::dvec3& low, const glm::dvec3& high)
 {
   double t0 = 0.0, t1 = 1e300;
   for (int axis = 0; axis < 3; ++axis)

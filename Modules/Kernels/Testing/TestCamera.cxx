@@ -34,7 +34,8 @@ hv::EyeView makeEye(const glm::mat4& view, const glm::mat4& projection, int widt
 
 TEST(Camera, GenerateRayAndProjectAreInverse)
 {
-  const glm::mat4 view = glm::lookAt(glm::vec3(0.3f, 1.2f, 3.0f), glm::vec3(0.1f, -0.2f, 0.0f), glm::vec3(0.1f, 1.0f, 0.0f));
+  const glm::mat4 view = glm::lookAt(
+    glm::vec3(0.3f, 1.2f, 3.0f), glm::vec3(0.1f, -0.2f, 0.0f), glm::vec3(0.1f, 1.0f, 0.0f));
   struct Case
   {
     const char* name;
@@ -84,7 +85,8 @@ TEST(Camera, Conventions)
 {
   // Eye at the origin looking down -Z with +Y up.
   const glm::mat4 view = glm::lookAt(glm::vec3(0.0f), glm::vec3(0, 0, -1), glm::vec3(0, 1, 0));
-  const hv::EyeView eye = makeEye(view, glm::perspective(glm::radians(60.0f), 2.0f, 0.1f, 100.0f), 200, 100);
+  const hv::EyeView eye =
+    makeEye(view, glm::perspective(glm::radians(60.0f), 2.0f, 0.1f, 100.0f), 200, 100);
   glm::vec2 pixel;
   float depth;
   // Pixel (0, 0) is bottom-left: a point up and to the left lands at small x, large y.
@@ -106,9 +108,11 @@ TEST(Camera, Conventions)
   EXPECT_FALSE(eye.project(glm::vec3(0.0f, 0.0f, 1.0f), pixel, depth));
 
   // An off-centre frustum: the image centre looks along ((l + r) / 2, (b + t) / 2, -near).
-  const hv::EyeView skewed = makeEye(view, glm::frustum(-0.02f, 0.06f, -0.05f, 0.01f, 0.1f, 100.0f), 64, 48);
+  const hv::EyeView skewed =
+    makeEye(view, glm::frustum(-0.02f, 0.06f, -0.05f, 0.01f, 0.1f, 100.0f), 64, 48);
   skewed.generateRay(32.0f, 24.0f, origin, direction, length);
-  EXPECT_NEAR(glm::length(direction - glm::normalize(glm::vec3(0.02f, -0.02f, -0.1f))), 0.0f, 1e-5f);
+  EXPECT_NEAR(
+    glm::length(direction - glm::normalize(glm::vec3(0.02f, -0.02f, -0.1f))), 0.0f, 1e-5f);
 }
 
 // Acceptance criterion: "on opaque surfaces, left-eye first-scatter positions projected into the
@@ -132,12 +136,16 @@ TEST(Camera, StereoReprojectionOfFirstScatterPositions)
   const float radius = 0.35f;
   hv::VolumeGrid grid;
   grid.setCellSize(2);
-  grid.setIndexToWorld(glm::scale(glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f)), glm::vec3(voxel)));
-  grid.setScalars(dims, hvtest::sampleField(dims, [&](const glm::vec3& p) {
-    const float r = glm::length(p * voxel - glm::vec3(0.5f));
-    // 0.5 on the sphere, linear over +-1.5 voxels.
-    return glm::clamp(0.5f + (radius - r) / (3.0f * voxel), 0.0f, 1.0f);
-  }));
+  grid.setIndexToWorld(
+    glm::scale(glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f)), glm::vec3(voxel)));
+  grid.setScalars(dims,
+    hvtest::sampleField(dims,
+      [&](const glm::vec3& p)
+      {
+        const float r = glm::length(p * voxel - glm::vec3(0.5f));
+        // 0.5 on the sphere, linear over +-1.5 voxels.
+        return glm::clamp(0.5f + (radius - r) / (3.0f * voxel), 0.0f, 1.0f);
+      }));
   // Step transfer function: transparent below 0.5, opacity 1 (capped at 1 - 1e-6) above.
   const int nodes = 32;
   std::vector<float> opacity(nodes);
@@ -166,8 +174,8 @@ TEST(Camera, StereoReprojectionOfFirstScatterPositions)
     const float side = e == 0 ? -1.0f : 1.0f;
     const glm::vec3 position(side * 0.5f * ipd, 0.02f, 2.0f);
     eyes[e] = makeEye(glm::lookAt(position, position + glm::vec3(0, 0, -1), glm::vec3(0, 1, 0)),
-      glm::frustum(-halfWidth * (1.0f - 0.1f * side), halfWidth * (1.0f + 0.1f * side), -1.05f * halfWidth,
-        0.95f * halfWidth, zNear, 10.0f),
+      glm::frustum(-halfWidth * (1.0f - 0.1f * side), halfWidth * (1.0f + 0.1f * side),
+        -1.05f * halfWidth, 0.95f * halfWidth, zNear, 10.0f),
       size, size);
   }
   std::vector<hv::PixelResult> images[2];
@@ -178,13 +186,13 @@ TEST(Camera, StereoReprojectionOfFirstScatterPositions)
     {
       for (int x = 0; x < size; ++x)
       {
-        images[e][y * size + x] = hv::renderPixel(scene, eyes[e], x, y, static_cast<std::uint32_t>(e), 0u, 7u, 1);
+        images[e][y * size + x] =
+          hv::renderPixel(scene, eyes[e], x, y, static_cast<std::uint32_t>(e), 0u, 7u, 1);
       }
     }
   }
-  auto hit = [&](int e, int x, int y) {
-    return x >= 0 && y >= 0 && x < size && y < size && images[e][y * size + x].hit != 0;
-  };
+  auto hit = [&](int e, int x, int y)
+  { return x >= 0 && y >= 0 && x < size && y < size && images[e][y * size + x].hit != 0; };
 
   int considered = 0, withinOnePixel = 0, samePoint = 0, roundTrip = 0;
   hvtest::RunningStats disparity;
@@ -243,13 +251,15 @@ TEST(Camera, StereoReprojectionOfFirstScatterPositions)
       ASSERT_NEAR(right.depth, eyes[1].viewDepth(right.firstScatterPosition), 1e-4f);
     }
   }
-  std::printf("[ info ] stereo: %d non-edge pixels, %d (%.1f %%) within one pixel (worst %.2f px), "
-              "%d (%.1f %%) the same surface point, %d (%.1f %%) back within one pixel in the left eye; "
-              "mean disparity %.2f px\n",
+  std::printf(
+    "[ info ] stereo: %d non-edge pixels, %d (%.1f %%) within one pixel (worst %.2f px), "
+    "%d (%.1f %%) the same surface point, %d (%.1f %%) back within one pixel in the left eye; "
+    "mean disparity %.2f px\n",
     considered, withinOnePixel, 100.0 * withinOnePixel / considered, worstPixel, samePoint,
     100.0 * samePoint / considered, roundTrip, 100.0 * roundTrip / considered, disparity.mean());
   ASSERT_GT(considered, 500) << "the sphere should cover a good part of the image";
-  ASSERT_GT(std::abs(disparity.mean()), 3.0) << "the disparity must be large enough to detect a wrong eye";
+  ASSERT_GT(std::abs(disparity.mean()), 3.0)
+    << "the disparity must be large enough to detect a wrong eye";
   EXPECT_GE(withinOnePixel, 0.95 * considered);
   EXPECT_GE(samePoint, 0.95 * considered);
   EXPECT_GE(roundTrip, 0.95 * considered);

@@ -30,7 +30,8 @@ constexpr int MapWidth = 64;
 constexpr int MapHeight = 32;
 
 // Grey texels (luminance = value, since the Rec. 709 weights sum to 1).
-std::vector<float> greyMap(int width, int height, const std::function<float(int row, int column)>& value)
+std::vector<float> greyMap(
+  int width, int height, const std::function<float(int row, int column)>& value)
 {
   std::vector<float> rgb(static_cast<std::size_t>(width) * height * 3);
   for (int row = 0; row < height; ++row)
@@ -54,7 +55,8 @@ bool isSunTexel(int row, int column)
 
 std::vector<float> sunMap()
 {
-  return greyMap(MapWidth, MapHeight, [](int row, int column) { return isSunTexel(row, column) ? 5000.0f : 1.0f; });
+  return greyMap(MapWidth, MapHeight,
+    [](int row, int column) { return isSunTexel(row, column) ? 5000.0f : 1.0f; });
 }
 
 // Reference value of int L(w) max(0, n.w) dw for a piecewise-constant map, by midpoint
@@ -70,7 +72,8 @@ double texelQuadrature(const std::vector<float>& rgb, int width, int height, con
     for (int column = 0; column < width; ++column)
     {
       const std::size_t texel = static_cast<std::size_t>(row) * width + column;
-      const double L = 0.2126 * rgb[3 * texel] + 0.7152 * rgb[3 * texel + 1] + 0.0722 * rgb[3 * texel + 2];
+      const double L =
+        0.2126 * rgb[3 * texel] + 0.7152 * rgb[3 * texel + 1] + 0.0722 * rgb[3 * texel + 2];
       for (int a = 0; a < sub; ++a)
       {
         const double theta0 = Pi * (row + static_cast<double>(a) / sub) / height;
@@ -81,7 +84,8 @@ double texelQuadrature(const std::vector<float>& rgb, int width, int height, con
         {
           const double u = (column + (b + 0.5) / sub) / width;
           const double phi = (u - 0.5) * 2.0 * Pi;
-          const glm::dvec3 d(std::sin(theta) * std::sin(phi), std::cos(theta), -std::sin(theta) * std::cos(phi));
+          const glm::dvec3 d(
+            std::sin(theta) * std::sin(phi), std::cos(theta), -std::sin(theta) * std::cos(phi));
           sum += L * std::max(0.0, glm::dot(n, d)) * dOmegaTheta * (2.0 * Pi / width / sub);
         }
       }
@@ -114,9 +118,15 @@ TEST(Equirectangular, SpecificDirections)
   EXPECT_LT(back.x, 1.0f);
   EXPECT_LT(std::min(back.x, 1.0f - back.x), 1e-6f) << "+Z is the seam u = 0 = 1";
 
-  EXPECT_NEAR(glm::length(hv::equirectangularToDirection(glm::vec2(0.5f, 0.5f)) - glm::vec3(0, 0, -1)), 0.0f, 1e-6f);
-  EXPECT_NEAR(glm::length(hv::equirectangularToDirection(glm::vec2(0.75f, 0.5f)) - glm::vec3(1, 0, 0)), 0.0f, 1e-6f);
-  EXPECT_NEAR(glm::length(hv::equirectangularToDirection(glm::vec2(0.3f, 0.0f)) - glm::vec3(0, 1, 0)), 0.0f, 1e-6f);
+  EXPECT_NEAR(
+    glm::length(hv::equirectangularToDirection(glm::vec2(0.5f, 0.5f)) - glm::vec3(0, 0, -1)), 0.0f,
+    1e-6f);
+  EXPECT_NEAR(
+    glm::length(hv::equirectangularToDirection(glm::vec2(0.75f, 0.5f)) - glm::vec3(1, 0, 0)), 0.0f,
+    1e-6f);
+  EXPECT_NEAR(
+    glm::length(hv::equirectangularToDirection(glm::vec2(0.3f, 0.0f)) - glm::vec3(0, 1, 0)), 0.0f,
+    1e-6f);
 }
 
 TEST(Equirectangular, RoundTrip)
@@ -203,7 +213,8 @@ TEST(EnvironmentMap, SampledPdfMatchesPdfOfDirection)
     ASSERT_EQ(map.setRadiance(MapWidth, MapHeight, sunMap()), "");
     if (rotated)
     {
-      map.setWorldToMap(glm::mat3(glm::rotate(glm::mat4(1.0f), 0.7f, glm::normalize(glm::vec3(1, 2, 3)))));
+      map.setWorldToMap(
+        glm::mat3(glm::rotate(glm::mat4(1.0f), 0.7f, glm::normalize(glm::vec3(1, 2, 3)))));
     }
     const hv::EnvironmentView env = map.view();
     ASSERT_FALSE(env.isUniform());
@@ -225,7 +236,8 @@ TEST(EnvironmentMap, SampledPdfMatchesPdfOfDirection)
         ++mismatches;
       }
       const glm::vec2 uv = hv::directionToEquirectangular(glm::mat3(map.view().worldToMap) * d);
-      inSun += isSunTexel(static_cast<int>(uv.y * MapHeight), static_cast<int>(uv.x * MapWidth)) ? 1 : 0;
+      inSun +=
+        isSunTexel(static_cast<int>(uv.y * MapHeight), static_cast<int>(uv.x * MapWidth)) ? 1 : 0;
     }
     EXPECT_LE(mismatches, n / 1000) << "rotated = " << rotated;
 
@@ -269,7 +281,8 @@ TEST(EnvironmentMap, ImportanceSamplingMatchesUniformWithLowerVariance)
   const hv::EnvironmentView uniform = uniformMap.view();
 
   // The sun's centre (the corner shared by its four texels) and a unit vector perpendicular to it.
-  const glm::vec3 sun = hv::equirectangularToDirection(glm::vec2(41.0f / MapWidth, 6.0f / MapHeight));
+  const glm::vec3 sun =
+    hv::equirectangularToDirection(glm::vec2(41.0f / MapWidth, 6.0f / MapHeight));
   const glm::vec3 across = glm::normalize(glm::cross(sun, glm::vec3(0, 0, 1)));
   struct Case
   {
@@ -293,7 +306,9 @@ TEST(EnvironmentMap, ImportanceSamplingMatchesUniformWithLowerVariance)
     {
       float pdf;
       const glm::vec3 d = importance.sampleDirection(rng.nextFloat(), rng.nextFloat(), pdf);
-      is.add(pdf > 0.0f ? hv::luminance(importance.evaluate(d)) * std::max(0.0f, glm::dot(n, d)) / pdf : 0.0);
+      is.add(pdf > 0.0f
+          ? hv::luminance(importance.evaluate(d)) * std::max(0.0f, glm::dot(n, d)) / pdf
+          : 0.0);
     }
     for (int i = 0; i < 2000000; ++i)
     {
@@ -305,12 +320,13 @@ TEST(EnvironmentMap, ImportanceSamplingMatchesUniformWithLowerVariance)
     const double ratio = us.variance() / is.variance();
     std::printf("[ info ] %s: reference %.4f, importance %.4f +- %.4f (var %.4g), "
                 "uniform %.4f +- %.4f (var %.4g), variance ratio %.1f\n",
-      c.name, reference, is.mean(), is.standardError(), is.variance(), us.mean(), us.standardError(),
-      us.variance(), ratio);
+      c.name, reference, is.mean(), is.standardError(), is.variance(), us.mean(),
+      us.standardError(), us.variance(), ratio);
     // Both estimators agree with the reference and with each other within 5 standard errors.
     EXPECT_NEAR(is.mean(), reference, 5.0 * is.standardError()) << c.name;
     EXPECT_NEAR(us.mean(), reference, 5.0 * us.standardError()) << c.name;
-    EXPECT_NEAR(is.mean(), us.mean(), 5.0 * std::hypot(is.standardError(), us.standardError())) << c.name;
+    EXPECT_NEAR(is.mean(), us.mean(), 5.0 * std::hypot(is.standardError(), us.standardError()))
+      << c.name;
     // The acceptance criterion's variance reduction, where the sun contributes. (With the sun
     // behind the surface, importance sampling wastes most samples on it and is expected to
     // be worse than uniform sampling; only unbiasedness is required there.)
@@ -340,8 +356,8 @@ TEST(EnvironmentMap, RejectsInvalidMaps)
   EXPECT_NE(map.setRadiance(8, 4, std::vector<float>(8 * 4 * 3 - 1, 1.0f)), "");
   EXPECT_NE(map.setRadiance(0, 0, std::vector<float>()), "");
   // NaN, infinite and negative texels.
-  for (float bad : { std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
-         -std::numeric_limits<float>::infinity(), -0.5f })
+  for (float bad : { std::numeric_limits<float>::quiet_NaN(),
+         std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(), -0.5f })
   {
     std::vector<float> rgb(8 * 4 * 3, 1.0f);
     rgb[37] = bad;
@@ -358,7 +374,8 @@ TEST(EnvironmentMap, RejectsInvalidMaps)
 TEST(EnvironmentMap, SphericalHarmonicIrradiance)
 {
   hv::Pcg32 rng = hv::makePixelRng(0u, 0u, 0u, 26u);
-  std::vector<glm::vec3> normals = { glm::vec3(0, 1, 0), glm::vec3(0, -1, 0), glm::vec3(1, 0, 0), glm::vec3(0, 0, -1) };
+  std::vector<glm::vec3> normals = { glm::vec3(0, 1, 0), glm::vec3(0, -1, 0), glm::vec3(1, 0, 0),
+    glm::vec3(0, 0, -1) };
   for (int i = 0; i < 50; ++i)
   {
     normals.push_back(hv::sampleUniformSphere(rng.nextFloat(), rng.nextFloat()));
@@ -397,7 +414,8 @@ TEST(EnvironmentMap, SphericalHarmonicIrradiance)
   hv::EnvironmentMap smooth;
   ASSERT_EQ(smooth.setRadiance(MapWidth, MapHeight,
               greyMap(MapWidth, MapHeight,
-                [](int row, int column) {
+                [](int row, int column)
+                {
                   const glm::vec3 d = hv::equirectangularToDirection(
                     glm::vec2((column + 0.5f) / MapWidth, (row + 0.5f) / MapHeight));
                   return 1.0f + 0.5f * d.y + 0.3f * d.x * d.z;
@@ -408,7 +426,8 @@ TEST(EnvironmentMap, SphericalHarmonicIrradiance)
   for (const glm::vec3& n : normals)
   {
     const double expected = Pi + 2.0 * Pi / 3.0 * 0.5 * n.y + Pi / 4.0 * 0.3 * n.x * n.z;
-    EXPECT_NEAR(hv::irradianceFromSH(smoothSH, n).x, expected, 5e-3) << n.x << " " << n.y << " " << n.z;
+    EXPECT_NEAR(hv::irradianceFromSH(smoothSH, n).x, expected, 5e-3)
+      << n.x << " " << n.y << " " << n.z;
   }
 
   // A bright upper hemisphere (10 above, 1 below the horizon): E(+Y) > E(-Y). The step is odd
@@ -416,7 +435,8 @@ TEST(EnvironmentMap, SphericalHarmonicIrradiance)
   // E(+Y) = 10 pi, E(-Y) = pi (1 % for the texel quadrature of the step).
   hv::EnvironmentMap sky;
   ASSERT_EQ(sky.setRadiance(MapWidth, MapHeight,
-              greyMap(MapWidth, MapHeight, [](int row, int) { return row < MapHeight / 2 ? 10.0f : 1.0f; })),
+              greyMap(MapWidth, MapHeight,
+                [](int row, int) { return row < MapHeight / 2 ? 10.0f : 1.0f; })),
     "");
   glm::vec3 skySH[9];
   sky.sphericalHarmonics(skySH);
@@ -436,8 +456,10 @@ void checkLargeMap(int width, int height)
 {
   // Sun centred near (u, v) = (0.6, 0.2), i.e. 36 degrees from the zenith.
   const int sunRow = static_cast<int>(0.2f * height), sunColumn = static_cast<int>(0.6f * width);
-  auto isSun = [&](int row, int column) { return std::abs(row - sunRow) <= 1 && std::abs(column - sunColumn) <= 1; };
-  const std::vector<float> rgb = greyMap(width, height, [&](int row, int column) { return isSun(row, column) ? 5000.0f : 1.0f; });
+  auto isSun = [&](int row, int column)
+  { return std::abs(row - sunRow) <= 1 && std::abs(column - sunColumn) <= 1; };
+  const std::vector<float> rgb = greyMap(
+    width, height, [&](int row, int column) { return isSun(row, column) ? 5000.0f : 1.0f; });
   hv::EnvironmentMap map;
   ASSERT_EQ(map.setRadiance(width, height, rgb), "");
   const hv::EnvironmentView env = map.view();
@@ -454,7 +476,8 @@ void checkLargeMap(int width, int height)
     const double s0 = std::sin(Pi * row / height), s1 = std::sin(Pi * (row + 1) / height);
     for (int column = 0; column < width; ++column)
     {
-      reference += (isSun(row, column) ? 5000.0 : 1.0) * (2.0 * Pi / width) * 0.5 * (s1 * s1 - s0 * s0);
+      reference +=
+        (isSun(row, column) ? 5000.0 : 1.0) * (2.0 * Pi / width) * 0.5 * (s1 * s1 - s0 * s0);
     }
   }
 
@@ -479,10 +502,11 @@ void checkLargeMap(int width, int height)
     us.add(hv::luminance(uniform.evaluate(d)) * std::max(0.0f, glm::dot(n, d)) / pdf);
   }
   const double ratio = us.variance() / is.variance();
-  std::printf("[ info ] %dx%d map: reference %.4f, importance %.4f +- %.4f (var %.4g), uniform %.4f +- %.4f "
-              "(var %.4g), variance ratio %.1f, pdf mismatches %d\n",
-    width, height, reference, is.mean(), is.standardError(), is.variance(), us.mean(), us.standardError(),
-    us.variance(), ratio, mismatches);
+  std::printf(
+    "[ info ] %dx%d map: reference %.4f, importance %.4f +- %.4f (var %.4g), uniform %.4f +- %.4f "
+    "(var %.4g), variance ratio %.1f, pdf mismatches %d\n",
+    width, height, reference, is.mean(), is.standardError(), is.variance(), us.mean(),
+    us.standardError(), us.variance(), ratio, mismatches);
   EXPECT_LE(mismatches, samples / 1000);
   EXPECT_NEAR(integral.mean(), 1.0, 5.0 * integral.standardError());
   EXPECT_NEAR(is.mean(), reference, 5.0 * is.standardError());

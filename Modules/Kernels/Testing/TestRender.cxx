@@ -42,10 +42,11 @@ void makeBall(hv::VolumeGrid& grid, const glm::vec3& albedo)
   const glm::ivec3 dims(24);
   const float voxel = 1.0f / 23.0f;
   grid.setCellSize(4);
-  grid.setIndexToWorld(glm::scale(glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f)), glm::vec3(voxel)));
-  grid.setScalars(dims, hvtest::sampleField(dims, [](const glm::vec3& p) {
-    return glm::length(p - glm::vec3(11.5f)) <= 9.0f ? 1.0f : 0.0f;
-  }));
+  grid.setIndexToWorld(
+    glm::scale(glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f)), glm::vec3(voxel)));
+  grid.setScalars(dims,
+    hvtest::sampleField(dims,
+      [](const glm::vec3& p) { return glm::length(p - glm::vec3(11.5f)) <= 9.0f ? 1.0f : 0.0f; }));
   // alpha = 1 - exp(-1) per unit distance 0.1: sigmaT = 10 at s = 1.
   grid.setTransferFunction({ 0.0f, 1.0f - std::exp(-1.0f) },
     { albedo.x, albedo.y, albedo.z, albedo.x, albedo.y, albedo.z }, 0.1f, 1.0f);
@@ -53,8 +54,8 @@ void makeBall(hv::VolumeGrid& grid, const glm::vec3& albedo)
 
 struct FurnaceResult
 {
-  RunningStats pixels[3]; // per RGB channel, one entry per (pixel, frame) estimate
-  double coverage = 0.0;  // fraction of primary samples that collided (pixel hits)
+  RunningStats pixels[3];          // per RGB channel, one entry per (pixel, frame) estimate
+  double coverage = 0.0;           // fraction of primary samples that collided (pixel hits)
   RunningStats surfaceProbability; // of the first scatter event, from its gradient magnitude
 };
 
@@ -64,8 +65,9 @@ struct FurnaceResult
 FurnaceResult renderFurnace(const hv::SceneView& scene, int samplesPerPixel, int frames)
 {
   const int size = 32;
-  const hv::EyeView eye = makeEye(glm::lookAt(glm::vec3(0.0f, 0.3f, 2.5f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
-    glm::perspective(glm::radians(30.0f), 1.0f, 0.1f, 10.0f), size, size);
+  const hv::EyeView eye =
+    makeEye(glm::lookAt(glm::vec3(0.0f, 0.3f, 2.5f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
+      glm::perspective(glm::radians(30.0f), 1.0f, 0.1f, 10.0f), size, size);
   FurnaceResult result;
   int hits = 0, count = 0;
   for (int y = 0; y < size; ++y)
@@ -78,7 +80,8 @@ FurnaceResult renderFurnace(const hv::SceneView& scene, int samplesPerPixel, int
       }
       for (int frame = 0; frame < frames; ++frame)
       {
-        const hv::PixelResult p = hv::renderPixel(scene, eye, x, y, 0u, static_cast<std::uint32_t>(frame), 1234u, samplesPerPixel);
+        const hv::PixelResult p = hv::renderPixel(
+          scene, eye, x, y, 0u, static_cast<std::uint32_t>(frame), 1234u, samplesPerPixel);
         for (int c = 0; c < 3; ++c)
         {
           result.pixels[c].add(p.radiance[c]);
@@ -87,7 +90,8 @@ FurnaceResult renderFurnace(const hv::SceneView& scene, int samplesPerPixel, int
         ++count;
         if (p.hit)
         {
-          result.surfaceProbability.add(1.0 - std::exp(-scene.volume.surfaceFactor * p.gradientMagnitude));
+          result.surfaceProbability.add(
+            1.0 - std::exp(-scene.volume.surfaceFactor * p.gradientMagnitude));
         }
       }
     }
@@ -147,7 +151,8 @@ TEST(Render, WhiteFurnace)
     {
       // The hybrid case must really exercise surface events: at the first scatter event
       // (near the ball's boundary, where gradients are strong) about half are surface events.
-      std::printf("[ info ] furnace, %-40s mean surface-event probability at the first event %.3f\n", c.name,
+      std::printf(
+        "[ info ] furnace, %-40s mean surface-event probability at the first event %.3f\n", c.name,
         r.surfaceProbability.mean());
       EXPECT_GT(r.surfaceProbability.mean(), 0.4) << c.name;
     }
@@ -157,8 +162,9 @@ TEST(Render, WhiteFurnace)
       const double L = FurnaceRadiance[channel];
       if (channel == 1)
       {
-        std::printf("[ info ] furnace, %-40s mean %.5f (L = %.1f), std. error %.5f, relative error %+.3f %%, "
-                    "%zu pixel estimates x 256 paths\n",
+        std::printf(
+          "[ info ] furnace, %-40s mean %.5f (L = %.1f), std. error %.5f, relative error %+.3f %%, "
+          "%zu pixel estimates x 256 paths\n",
           c.name, s.mean(), L, s.standardError(), 100.0 * (s.mean() - L) / L, s.count());
       }
       EXPECT_LT(5.0 * s.standardError(), 0.01 * L) << c.name << ": too few samples for a 1 % test";
@@ -198,17 +204,23 @@ TEST(Render, Determinism)
   scene.lightCount = 1;
   scene.lights[0].type = hv::DirectionalLight;
   scene.lights[0].toLight = glm::normalize(glm::vec3(1, 1, 1));
-  const hv::EyeView eye = makeEye(glm::lookAt(glm::vec3(0.0f, 0.3f, 2.5f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
-    glm::perspective(glm::radians(30.0f), 1.0f, 0.1f, 10.0f), 32, 32);
+  const hv::EyeView eye =
+    makeEye(glm::lookAt(glm::vec3(0.0f, 0.3f, 2.5f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
+      glm::perspective(glm::radians(30.0f), 1.0f, 0.1f, 10.0f), 32, 32);
 
-  auto same = [](const hv::PixelResult& a, const hv::PixelResult& b) {
+  auto same = [](const hv::PixelResult& a, const hv::PixelResult& b)
+  {
     return std::memcmp(&a.radiance, &b.radiance, sizeof(a.radiance)) == 0 &&
-      std::memcmp(&a.firstScatterPosition, &b.firstScatterPosition, sizeof(a.firstScatterPosition)) == 0 &&
-      std::memcmp(&a.depth, &b.depth, sizeof(a.depth)) == 0 && std::memcmp(&a.albedo, &b.albedo, sizeof(a.albedo)) == 0 &&
+      std::memcmp(
+        &a.firstScatterPosition, &b.firstScatterPosition, sizeof(a.firstScatterPosition)) == 0 &&
+      std::memcmp(&a.depth, &b.depth, sizeof(a.depth)) == 0 &&
+      std::memcmp(&a.albedo, &b.albedo, sizeof(a.albedo)) == 0 &&
       std::memcmp(&a.normal, &b.normal, sizeof(a.normal)) == 0 &&
-      std::memcmp(&a.gradientMagnitude, &b.gradientMagnitude, sizeof(a.gradientMagnitude)) == 0 && a.hit == b.hit;
+      std::memcmp(&a.gradientMagnitude, &b.gradientMagnitude, sizeof(a.gradientMagnitude)) == 0 &&
+      a.hit == b.hit;
   };
-  for (int model : { hv::PathTraced, hv::EmissionAbsorption, hv::GradientPhong, hv::PrefilteredEnvironment })
+  for (int model :
+    { hv::PathTraced, hv::EmissionAbsorption, hv::GradientPhong, hv::PrefilteredEnvironment })
   {
     scene.model = model;
     scene.stepLength = 0.01f;
@@ -240,9 +252,11 @@ TEST(Render, RayMarchedModelsMatchBeerLambert)
   const double sigma = 1.5;
   const glm::vec3 albedo(0.9f, 0.5f, 0.2f);
   hv::VolumeGrid grid;
-  grid.setIndexToWorld(glm::scale(glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f)), glm::vec3(voxel)));
+  grid.setIndexToWorld(
+    glm::scale(glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f)), glm::vec3(voxel)));
   grid.setScalars(dims, std::vector<float>(16 * 16 * 16, 1.0f));
-  hvtest::setConstantTransferFunction(grid, static_cast<float>(1.0 - std::exp(-sigma)), albedo, 1.0f, 1.0f);
+  hvtest::setConstantTransferFunction(
+    grid, static_cast<float>(1.0 - std::exp(-sigma)), albedo, 1.0f, 1.0f);
 
   hv::EnvironmentMap environment;
   const glm::vec3 L(0.7f, 1.1f, 2.0f);
@@ -254,8 +268,9 @@ TEST(Render, RayMarchedModelsMatchBeerLambert)
   scene.stepLength = 0.005f;
   scene.ambient = 0.3f;
 
-  const hv::EyeView eye = makeEye(glm::lookAt(glm::vec3(0.0f, 0.0f, 3.0f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
-    glm::ortho(-0.4f, 0.4f, -0.4f, 0.4f, 0.1f, 10.0f), 16, 16);
+  const hv::EyeView eye =
+    makeEye(glm::lookAt(glm::vec3(0.0f, 0.0f, 3.0f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
+      glm::ortho(-0.4f, 0.4f, -0.4f, 0.4f, 0.1f, 10.0f), 16, 16);
   const double opacity = 1.0 - std::exp(-sigma * 1.0);
 
   struct Case
@@ -268,7 +283,8 @@ TEST(Render, RayMarchedModelsMatchBeerLambert)
   const Case cases[] = {
     { "emission-absorption", hv::EmissionAbsorption, false, glm::vec3(albedo * float(opacity)) },
     // No lights: only the ambient term, ambient * albedo.
-    { "gradient Phong, no lights", hv::GradientPhong, false, glm::vec3(scene.ambient * albedo * float(opacity)) },
+    { "gradient Phong, no lights", hv::GradientPhong, false,
+      glm::vec3(scene.ambient * albedo * float(opacity)) },
     // A uniform environment gives irradiance pi L on surfaces and mean radiance L inside, so
     // both terms shade albedo * L; the visible environment adds L exp(-sigmaT d).
     { "prefiltered environment, visible", hv::PrefilteredEnvironment, true,
@@ -295,12 +311,14 @@ TEST(Render, RayMarchedModelsMatchBeerLambert)
         ASSERT_NEAR(p.firstScatterPosition.z, 0.5 - std::log(2.0) / sigma, 0.01) << c.name;
       }
     }
-    std::printf("[ info ] %-34s radiance (%.4f, %.4f, %.4f), expected (%.4f, %.4f, %.4f), alpha %.4f (expected %.4f)\n",
-      c.name, radiance[0].mean(), radiance[1].mean(), radiance[2].mean(), c.expected.x, c.expected.y, c.expected.z,
-      alpha.mean(), c.environmentVisible ? 1.0 : opacity);
+    std::printf("[ info ] %-34s radiance (%.4f, %.4f, %.4f), expected (%.4f, %.4f, %.4f), alpha "
+                "%.4f (expected %.4f)\n",
+      c.name, radiance[0].mean(), radiance[1].mean(), radiance[2].mean(), c.expected.x,
+      c.expected.y, c.expected.z, alpha.mean(), c.environmentVisible ? 1.0 : opacity);
     for (int channel = 0; channel < 3; ++channel)
     {
-      EXPECT_NEAR(radiance[channel].mean(), c.expected[channel], 0.02 * c.expected[channel]) << c.name << " " << channel;
+      EXPECT_NEAR(radiance[channel].mean(), c.expected[channel], 0.02 * c.expected[channel])
+        << c.name << " " << channel;
     }
     EXPECT_NEAR(alpha.mean(), c.environmentVisible ? 1.0 : opacity, 0.02 * opacity) << c.name;
   }
@@ -315,8 +333,9 @@ TEST(Render, PathTracerCoverage)
   hv::EnvironmentMap environment;
   environment.setUniformRadiance(FurnaceRadiance);
   hv::SceneView scene = furnaceScene(grid, environment);
-  const hv::EyeView eye = makeEye(glm::lookAt(glm::vec3(0.0f, 0.3f, 2.5f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
-    glm::perspective(glm::radians(30.0f), 1.0f, 0.1f, 10.0f), 32, 32);
+  const hv::EyeView eye =
+    makeEye(glm::lookAt(glm::vec3(0.0f, 0.3f, 2.5f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
+      glm::perspective(glm::radians(30.0f), 1.0f, 0.1f, 10.0f), 32, 32);
   // The corner pixel sees only the environment.
   hv::PixelResult corner = hv::renderPixel(scene, eye, 0, 0, 0u, 0u, 1u, 4);
   EXPECT_EQ(corner.hit, 0);
@@ -327,7 +346,8 @@ TEST(Render, PathTracerCoverage)
   EXPECT_EQ(corner.radiance, glm::vec4(0.0f));
   const hv::PixelResult centre = hv::renderPixel(scene, eye, 16, 16, 0u, 0u, 1u, 16);
   EXPECT_EQ(centre.hit, 1);
-  EXPECT_FLOAT_EQ(centre.radiance.w, 1.0f) << "every primary ray through the centre enters the ball";
+  EXPECT_FLOAT_EQ(centre.radiance.w, 1.0f)
+    << "every primary ray through the centre enters the ball";
 }
 
 // Next-event estimation towards a directional light: a slab (1 x 1 x 0.2, sigmaT = 2.5,
@@ -343,15 +363,18 @@ TEST(Render, SingleScatteringOfDirectionalLight)
   const double sigma = 2.5;
   const glm::vec3 albedo(0.9f, 0.6f, 0.3f);
   hv::VolumeGrid grid;
-  grid.setIndexToWorld(glm::scale(glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f, -0.5f, -0.5f * depth)),
-    glm::vec3(1.0f / 15.0f, 1.0f / 15.0f, depth / 15.0f)));
+  grid.setIndexToWorld(
+    glm::scale(glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f, -0.5f, -0.5f * depth)),
+      glm::vec3(1.0f / 15.0f, 1.0f / 15.0f, depth / 15.0f)));
   grid.setScalars(dims, std::vector<float>(16 * 16 * 16, 1.0f));
-  hvtest::setConstantTransferFunction(grid, static_cast<float>(1.0 - std::exp(-sigma)), albedo, 1.0f, 1.0f);
+  hvtest::setConstantTransferFunction(
+    grid, static_cast<float>(1.0 - std::exp(-sigma)), albedo, 1.0f, 1.0f);
   hv::EnvironmentMap environment;
   environment.setUniformRadiance(glm::vec3(0.0f));
 
-  const hv::EyeView eye = makeEye(glm::lookAt(glm::vec3(0.0f, 0.0f, 3.0f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
-    glm::ortho(-0.2f, 0.2f, -0.2f, 0.2f, 0.1f, 10.0f), 8, 8);
+  const hv::EyeView eye =
+    makeEye(glm::lookAt(glm::vec3(0.0f, 0.0f, 3.0f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
+      glm::ortho(-0.2f, 0.2f, -0.2f, 0.2f, 0.1f, 10.0f), 8, 8);
   const double mu = 0.8;
   for (float g : { 0.0f, 0.5f })
   {
@@ -363,7 +386,8 @@ TEST(Render, SingleScatteringOfDirectionalLight)
     scene.anisotropy = g;
     scene.lightCount = 1;
     scene.lights[0].type = hv::DirectionalLight;
-    scene.lights[0].toLight = glm::vec3(static_cast<float>(std::sqrt(1.0 - mu * mu)), 0.0f, static_cast<float>(mu));
+    scene.lights[0].toLight =
+      glm::vec3(static_cast<float>(std::sqrt(1.0 - mu * mu)), 0.0f, static_cast<float>(mu));
     scene.lights[0].intensity = glm::vec3(2.0f);
     RunningStats radiance[3];
     for (int y = 0; y < 8; ++y)
@@ -381,15 +405,21 @@ TEST(Render, SingleScatteringOfDirectionalLight)
     const double k = 1.0 + 1.0 / mu;
     for (int c = 0; c < 3; ++c)
     {
-      const double expected = albedo[c] * phase * hvtest::Pi * 2.0 * (1.0 - std::exp(-sigma * depth * k)) / k;
+      const double expected =
+        albedo[c] * phase * hvtest::Pi * 2.0 * (1.0 - std::exp(-sigma * depth * k)) / k;
       if (c == 0)
       {
-        std::printf("[ info ] single scattering, g = %.1f: radiance %.5f +- %.5f, expected %.5f (%+.3f %%)\n", g,
-          radiance[c].mean(), radiance[c].standardError(), expected, 100.0 * (radiance[c].mean() - expected) / expected);
+        std::printf(
+          "[ info ] single scattering, g = %.1f: radiance %.5f +- %.5f, expected %.5f (%+.3f %%)\n",
+          g, radiance[c].mean(), radiance[c].standardError(), expected,
+          100.0 * (radiance[c].mean() - expected) / expected);
       }
-      EXPECT_LT(5.0 * radiance[c].standardError(), 0.01 * expected) << "too few samples for a 1 % test";
-      EXPECT_NEAR(radiance[c].mean(), expected, 0.01 * expected) << "g = " << g << ", channel " << c;
-      EXPECT_NEAR(radiance[c].mean(), expected, 5.0 * radiance[c].standardError()) << "g = " << g << ", channel " << c;
+      EXPECT_LT(5.0 * radiance[c].standardError(), 0.01 * expected)
+        << "too few samples for a 1 % test";
+      EXPECT_NEAR(radiance[c].mean(), expected, 0.01 * expected)
+        << "g = " << g << ", channel " << c;
+      EXPECT_NEAR(radiance[c].mean(), expected, 5.0 * radiance[c].standardError())
+        << "g = " << g << ", channel " << c;
     }
   }
 }
@@ -416,14 +446,16 @@ TEST(Render, EnvironmentImportanceSamplingIsUnbiasedInPathTracer)
   }
   hv::VolumeGrid grid;
   makeBall(grid, glm::vec3(0.8f, 0.8f, 0.8f));
-  const hv::EyeView eye = makeEye(glm::lookAt(glm::vec3(0.0f, 0.3f, 2.5f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
-    glm::perspective(glm::radians(30.0f), 1.0f, 0.1f, 10.0f), 32, 32);
+  const hv::EyeView eye =
+    makeEye(glm::lookAt(glm::vec3(0.0f, 0.3f, 2.5f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
+      glm::perspective(glm::radians(30.0f), 1.0f, 0.1f, 10.0f), 32, 32);
   hv::EnvironmentMap environments[2];
   hv::SceneView scenes[2];
   for (int importance = 0; importance < 2; ++importance)
   {
     ASSERT_EQ(environments[importance].setRadiance(width, height, rgb), "");
-    environments[importance].setWorldToMap(glm::mat3(glm::rotate(glm::mat4(1.0f), 0.4f, glm::vec3(0, 1, 0))));
+    environments[importance].setWorldToMap(
+      glm::mat3(glm::rotate(glm::mat4(1.0f), 0.4f, glm::vec3(0, 1, 0))));
     environments[importance].setImportanceSampling(importance == 1);
     scenes[importance] = furnaceScene(grid, environments[importance]);
     scenes[importance].maximumBounces = 4;
@@ -437,7 +469,8 @@ TEST(Render, EnvironmentImportanceSamplingIsUnbiasedInPathTracer)
       hv::PixelResult p[2];
       for (int importance = 0; importance < 2; ++importance)
       {
-        p[importance] = hv::renderPixel(scenes[importance], eye, x, y, 0u, static_cast<std::uint32_t>(importance), 99u, 1536);
+        p[importance] = hv::renderPixel(
+          scenes[importance], eye, x, y, 0u, static_cast<std::uint32_t>(importance), 99u, 1536);
         for (int c = 0; c < 3; ++c)
         {
           radiance[importance][c].add(p[importance].radiance[c]);
@@ -454,8 +487,9 @@ TEST(Render, EnvironmentImportanceSamplingIsUnbiasedInPathTracer)
     const double mean = radiance[1][c].mean();
     if (c == 0)
     {
-      std::printf("[ info ] MIS: importance sampling %.4f, uniform light sampling %.4f, paired difference "
-                  "%+.5f +- %.5f (%+.2f %%)\n",
+      std::printf(
+        "[ info ] MIS: importance sampling %.4f, uniform light sampling %.4f, paired difference "
+        "%+.5f +- %.5f (%+.2f %%)\n",
         mean, radiance[0][c].mean(), difference[c].mean(), difference[c].standardError(),
         100.0 * difference[c].mean() / mean);
     }

@@ -48,7 +48,8 @@ std::vector<glm::vec3> testDirections()
   // Axes (both signs, the -Z case exercises makeBasis' other branch) and a few oblique ones.
   std::vector<glm::vec3> directions = { glm::vec3(0, 0, 1), glm::vec3(0, 0, -1), glm::vec3(1, 0, 0),
     glm::vec3(0, -1, 0), glm::normalize(glm::vec3(0.3f, -0.5f, 0.8f)),
-    glm::normalize(glm::vec3(-0.2f, 0.1f, -0.97f)), glm::normalize(glm::vec3(1e-4f, 1e-4f, -1.0f)) };
+    glm::normalize(glm::vec3(-0.2f, 0.1f, -0.97f)),
+    glm::normalize(glm::vec3(1e-4f, 1e-4f, -1.0f)) };
   return directions;
 }
 }
@@ -66,7 +67,8 @@ TEST(Random, Pcg32MatchesReferenceImplementation)
   rng.nextUInt();
   rng.state += 42u;
   rng.nextUInt();
-  const std::uint32_t expected[6] = { 0xa15c02b7u, 0x7b47f409u, 0xba1d3330u, 0x83d2f293u, 0xbfa4784bu, 0xcbed606eu };
+  const std::uint32_t expected[6] = { 0xa15c02b7u, 0x7b47f409u, 0xba1d3330u, 0x83d2f293u,
+    0xbfa4784bu, 0xcbed606eu };
   for (std::uint32_t value : expected)
   {
     EXPECT_EQ(rng.nextUInt(), value);
@@ -123,7 +125,8 @@ TEST(Random, DifferentTuplesGiveDifferentStreams)
     sab += x * y;
   }
   const double cov = sab / n - (sa / n) * (sb / n);
-  const double r = cov / std::sqrt((saa / n - (sa / n) * (sa / n)) * (sbb / n - (sb / n) * (sb / n)));
+  const double r =
+    cov / std::sqrt((saa / n - (sa / n) * (sa / n)) * (sbb / n - (sb / n) * (sb / n)));
   EXPECT_LT(std::abs(r), 5.0 / std::sqrt(static_cast<double>(n))) << "r = " << r;
 }
 
@@ -245,15 +248,16 @@ TEST(Sampling, HenyeyGreensteinSamplesHaveMeanCosineG)
       cdf.reserve(n);
       for (int i = 0; i < n; ++i)
       {
-        const glm::vec3 d = hv::sampleHenyeyGreenstein(incoming, g, rng.nextFloat(), rng.nextFloat());
+        const glm::vec3 d =
+          hv::sampleHenyeyGreenstein(incoming, g, rng.nextFloat(), rng.nextFloat());
         ASSERT_NEAR(glm::length(d), 1.0f, 1e-4f);
         const double mu = glm::dot(d, incoming);
         cosine.add(mu);
         // Analytic CDF of mu: (1 - g^2) / (2 g) [(1 + g^2 - 2 g mu)^(-1/2) - (1 + g)^(-1)].
         const double gd = g;
-        cdf.push_back(std::abs(gd) < 1e-6
-            ? 0.5 * (mu + 1.0)
-            : (1.0 - gd * gd) / (2.0 * gd) * (1.0 / std::sqrt(1.0 + gd * gd - 2.0 * gd * mu) - 1.0 / (1.0 + gd)));
+        cdf.push_back(std::abs(gd) < 1e-6 ? 0.5 * (mu + 1.0)
+                                          : (1.0 - gd * gd) / (2.0 * gd) *
+              (1.0 / std::sqrt(1.0 + gd * gd - 2.0 * gd * mu) - 1.0 / (1.0 + gd)));
       }
       // The mean cosine of HG is g (5 standard errors).
       EXPECT_NEAR(cosine.mean(), g, 5.0 * cosine.standardError()) << "g = " << g;

@@ -40,7 +40,8 @@ TEST(ToneMapping, ACESCurve)
 {
   EXPECT_EQ(hv::toneMapACES(0.0f), 0.0f);
   // Narkowicz's fit: 0.18 maps to ~0.267, and it saturates at 1.
-  EXPECT_NEAR(hv::toneMapACES(0.18f), 0.18 * (2.51 * 0.18 + 0.03) / (0.18 * (2.43 * 0.18 + 0.59) + 0.14), 1e-6);
+  EXPECT_NEAR(hv::toneMapACES(0.18f),
+    0.18 * (2.51 * 0.18 + 0.03) / (0.18 * (2.43 * 0.18 + 0.59) + 0.14), 1e-6);
   EXPECT_EQ(hv::toneMapACES(100.0f), 1.0f);
   float previous = -1.0f;
   for (int i = 0; i <= 2000; ++i)

@@ -51,7 +51,8 @@ void makeHomogeneous(hv::VolumeGrid& grid, int cellSize = 4)
 {
   grid.setCellSize(cellSize);
   grid.setIndexToWorld(indexToWorld());
-  grid.setScalars(Dims, std::vector<float>(static_cast<std::size_t>(Dims.x) * Dims.y * Dims.z, 1.0f));
+  grid.setScalars(
+    Dims, std::vector<float>(static_cast<std::size_t>(Dims.x) * Dims.y * Dims.z, 1.0f));
   hvtest::setConstantTransferFunction(grid, Alpha, glm::vec3(0.5f), UnitDistance, DensityScale);
 }
 
@@ -62,7 +63,8 @@ struct TransmittanceEstimates
 };
 
 TransmittanceEstimates estimate(const hv::VolumeView& volume, const hv::ClippingPlanes& clipping,
-  const glm::vec3& origin, const glm::vec3& direction, float tMax, int samples, std::uint32_t stream)
+  const glm::vec3& origin, const glm::vec3& direction, float tMax, int samples,
+  std::uint32_t stream)
 {
   TransmittanceEstimates result;
   hv::IndexRay ray;
@@ -85,10 +87,12 @@ TransmittanceEstimates estimate(const hv::VolumeView& volume, const hv::Clipping
 void expectTransmittance(const std::string& what, const RunningStats& stats, double exact)
 {
   const double error = stats.mean() - exact;
-  std::printf("[ info ] %-44s T = %.5f, estimate %.5f +- %.5f, relative error %+.3f %% (5 SE = %.3f %%)\n",
+  std::printf(
+    "[ info ] %-44s T = %.5f, estimate %.5f +- %.5f, relative error %+.3f %% (5 SE = %.3f %%)\n",
     what.c_str(), exact, stats.mean(), stats.standardError(), 100.0 * error / exact,
     500.0 * stats.standardError() / exact);
-  EXPECT_LT(5.0 * stats.standardError(), 0.01 * exact) << what << ": too few samples for a 1 % test";
+  EXPECT_LT(5.0 * stats.standardError(), 0.01 * exact)
+    << what << ": too few samples for a 1 % test";
   EXPECT_NEAR(stats.mean(), exact, 5.0 * stats.standardError()) << what;
   EXPECT_NEAR(stats.mean(), exact, 0.01 * exact) << what;
 }
@@ -106,7 +110,8 @@ TEST(VolumeGrid, ExtinctionFromOpacity)
   hv::Pcg32 rng = hv::makePixelRng(0u, 0u, 0u, 32u);
   for (int i = 0; i < 1000; ++i)
   {
-    const glm::vec3 p = glm::vec3(rng.nextFloat(), rng.nextFloat(), rng.nextFloat()) * glm::vec3(Dims - 1);
+    const glm::vec3 p =
+      glm::vec3(rng.nextFloat(), rng.nextFloat(), rng.nextFloat()) * glm::vec3(Dims - 1);
     ASSERT_NEAR(v.sigmaT(p), sigma, 1e-6 * sigma);
   }
 
@@ -124,12 +129,14 @@ TEST(VolumeGrid, ExtinctionFromOpacity)
     if (i < 3)
     {
       const double next = hvtest::extinctionOf(opacity[i + 1], 0.5, 2.0);
-      EXPECT_NEAR(v.transfer.sigmaT((i + 0.5f) / 4.0f), 0.5 * (expected + next), 1e-5 * (1.0 + next));
+      EXPECT_NEAR(
+        v.transfer.sigmaT((i + 0.5f) / 4.0f), 0.5 * (expected + next), 1e-5 * (1.0 + next));
     }
   }
   // Opacity 1 is capped at 1 - 1e-6 (in float, so -ln(1.0133e-6) rather than -ln(1e-6)).
   EXPECT_TRUE(std::isfinite(v.transfer.sigmaT(1.0f)));
-  EXPECT_NEAR(v.transfer.sigmaT(1.0f), -std::log(1e-6) / 0.5 * 2.0, 0.002 * -std::log(1e-6) / 0.5 * 2.0);
+  EXPECT_NEAR(
+    v.transfer.sigmaT(1.0f), -std::log(1e-6) / 0.5 * 2.0, 0.002 * -std::log(1e-6) / 0.5 * 2.0);
 }
 
 TEST(Tracking, IndexRayParameterIsWorldDistance)
@@ -143,18 +150,22 @@ TEST(Tracking, IndexRayParameterIsWorldDistance)
   int hits = 0;
   for (int i = 0; i < 2000; ++i)
   {
-    const glm::vec3 origin = centre + 12.0f * hv::sampleUniformSphere(rng.nextFloat(), rng.nextFloat());
-    const glm::vec3 target = WorldLow + (WorldHigh - WorldLow) * glm::vec3(rng.nextFloat(), rng.nextFloat(), rng.nextFloat());
+    const glm::vec3 origin =
+      centre + 12.0f * hv::sampleUniformSphere(rng.nextFloat(), rng.nextFloat());
+    const glm::vec3 target = WorldLow +
+      (WorldHigh - WorldLow) * glm::vec3(rng.nextFloat(), rng.nextFloat(), rng.nextFloat());
     const glm::vec3 direction = glm::normalize(target - origin);
     hv::IndexRay ray;
     ASSERT_TRUE(hv::makeIndexRay(v, none, origin, direction, 0.0f, hv::Infinity, ray));
     ++hits;
-    const double chord = hvtest::boxChordLength(glm::dvec3(origin), glm::dvec3(direction), glm::dvec3(WorldLow), glm::dvec3(WorldHigh));
+    const double chord = hvtest::boxChordLength(
+      glm::dvec3(origin), glm::dvec3(direction), glm::dvec3(WorldLow), glm::dvec3(WorldHigh));
     ASSERT_NEAR(ray.tMax - ray.tMin, chord, 1e-4 * (1.0 + chord));
     // Index position at t maps to the world position at t.
     for (float t : { ray.tMin, 0.5f * (ray.tMin + ray.tMax), ray.tMax })
     {
-      const glm::vec3 world = glm::vec3(v.indexToWorld * glm::vec4(ray.origin + t * ray.direction, 1.0f));
+      const glm::vec3 world =
+        glm::vec3(v.indexToWorld * glm::vec4(ray.origin + t * ray.direction, 1.0f));
       ASSERT_NEAR(glm::length(world - (origin + t * direction)), 0.0f, 1e-4f);
     }
   }
@@ -163,7 +174,8 @@ TEST(Tracking, IndexRayParameterIsWorldDistance)
   hv::IndexRay ray;
   EXPECT_TRUE(hv::makeIndexRay(v, none, centre, glm::vec3(1, 0, 0), 0.0f, 1.0f, ray));
   EXPECT_FLOAT_EQ(ray.tMax, 1.0f);
-  EXPECT_FALSE(hv::makeIndexRay(v, none, WorldHigh + glm::vec3(1.0f), glm::vec3(0, 0, 1), 0.0f, hv::Infinity, ray));
+  EXPECT_FALSE(hv::makeIndexRay(
+    v, none, WorldHigh + glm::vec3(1.0f), glm::vec3(0, 0, 1), 0.0f, hv::Infinity, ray));
 }
 
 // Beer-Lambert in a homogeneous box with anisotropic spacing, for rays along each axis, an
@@ -182,9 +194,12 @@ TEST(Tracking, HomogeneousSlabBeerLambert)
     glm::vec3 direction;
   };
   const Case cases[] = {
-    { "slab along +x (d = 7.5)", glm::vec3(WorldLow.x - 3.0f, centre.y, centre.z), glm::vec3(1, 0, 0) },
-    { "slab along -y (d = 3.75)", glm::vec3(centre.x + 0.3f, WorldHigh.y + 2.0f, centre.z), glm::vec3(0, -1, 0) },
-    { "slab along +z (d = 11.25)", glm::vec3(centre.x, centre.y, WorldLow.z - 1.0f), glm::vec3(0, 0, 1) },
+    { "slab along +x (d = 7.5)", glm::vec3(WorldLow.x - 3.0f, centre.y, centre.z),
+      glm::vec3(1, 0, 0) },
+    { "slab along -y (d = 3.75)", glm::vec3(centre.x + 0.3f, WorldHigh.y + 2.0f, centre.z),
+      glm::vec3(0, -1, 0) },
+    { "slab along +z (d = 11.25)", glm::vec3(centre.x, centre.y, WorldLow.z - 1.0f),
+      glm::vec3(0, 0, 1) },
     { "oblique", glm::vec3(WorldLow.x - 1.0f, centre.y - 0.4f, centre.z - 2.0f),
       glm::normalize(glm::vec3(1.0f, 0.1f, 0.3f)) },
     { "starting inside", centre, glm::normalize(glm::vec3(-0.4f, 0.2f, -0.6f)) },
@@ -192,10 +207,12 @@ TEST(Tracking, HomogeneousSlabBeerLambert)
   std::uint32_t stream = 0;
   for (const Case& c : cases)
   {
-    const double d = hvtest::boxChordLength(glm::dvec3(c.origin), glm::dvec3(c.direction), glm::dvec3(WorldLow), glm::dvec3(WorldHigh));
+    const double d = hvtest::boxChordLength(
+      glm::dvec3(c.origin), glm::dvec3(c.direction), glm::dvec3(WorldLow), glm::dvec3(WorldHigh));
     ASSERT_GT(d, 1.0) << c.name;
     const double exact = std::exp(-sigma * d);
-    const TransmittanceEstimates e = estimate(v, hv::ClippingPlanes(), c.origin, c.direction, hv::Infinity, Samples, stream++);
+    const TransmittanceEstimates e =
+      estimate(v, hv::ClippingPlanes(), c.origin, c.direction, hv::Infinity, Samples, stream++);
     expectTransmittance(std::string("ratio tracking, ") + c.name, e.ratio, exact);
     expectTransmittance(std::string("delta tracking, ") + c.name, e.delta, exact);
   }
@@ -226,7 +243,8 @@ TEST(Tracking, TransmittanceTowardsLights)
     glm::vec3 toLight;
     float distance;
     hv::evaluateLight(light, x, toLight, distance);
-    double d = hvtest::boxChordLength(glm::dvec3(x), glm::dvec3(toLight), glm::dvec3(WorldLow), glm::dvec3(WorldHigh));
+    double d = hvtest::boxChordLength(
+      glm::dvec3(x), glm::dvec3(toLight), glm::dvec3(WorldLow), glm::dvec3(WorldHigh));
     if (light.type == hv::PositionalLight)
     {
       EXPECT_LT(distance, d) << "the lamp must be inside the medium for this test";
@@ -240,14 +258,17 @@ TEST(Tracking, TransmittanceTowardsLights)
     {
       stats.add(hv::transmittanceTowards(scene, x, toLight, distance, rng));
     }
-    expectTransmittance(light.type == hv::DirectionalLight ? "transmittanceTowards, directional light"
-                                                           : "transmittanceTowards, positional light",
+    expectTransmittance(light.type == hv::DirectionalLight
+        ? "transmittanceTowards, directional light"
+        : "transmittanceTowards, positional light",
       stats, exact);
   }
 
   // A shadow ray that never enters the volume is unoccluded.
   hv::Pcg32 rng = hv::makePixelRng(0u, 0u, 0u, 35u);
-  EXPECT_EQ(hv::transmittanceTowards(scene, WorldHigh + glm::vec3(1.0f), glm::vec3(0, 1, 0), hv::Infinity, rng), 1.0f);
+  EXPECT_EQ(hv::transmittanceTowards(
+              scene, WorldHigh + glm::vec3(1.0f), glm::vec3(0, 1, 0), hv::Infinity, rng),
+    1.0f);
 }
 
 TEST(Tracking, ClippingPlanesShortenThePath)
@@ -289,9 +310,12 @@ TEST(Tracking, ClippingPlanesShortenThePath)
     hv::IndexRay ray;
     ASSERT_TRUE(hv::makeIndexRay(v, *c.clipping, origin, direction, 0.0f, hv::Infinity, ray));
     EXPECT_NEAR(ray.tMax - ray.tMin, c.length, 1e-4) << c.name;
-    const TransmittanceEstimates e = estimate(v, *c.clipping, origin, direction, hv::Infinity, Samples, stream++);
-    expectTransmittance(std::string("ratio tracking, ") + c.name, e.ratio, std::exp(-sigma * c.length));
-    expectTransmittance(std::string("delta tracking, ") + c.name, e.delta, std::exp(-sigma * c.length));
+    const TransmittanceEstimates e =
+      estimate(v, *c.clipping, origin, direction, hv::Infinity, Samples, stream++);
+    expectTransmittance(
+      std::string("ratio tracking, ") + c.name, e.ratio, std::exp(-sigma * c.length));
+    expectTransmittance(
+      std::string("delta tracking, ") + c.name, e.delta, std::exp(-sigma * c.length));
   }
 
   // A plane parallel to the ray, with the ray on its clipped side, removes the whole ray.
@@ -314,15 +338,19 @@ TEST(Tracking, CroppingRemovesRegions)
 
   // Subvolume (only the central region, bit 13): the ray is restricted to the crop box.
   grid.setCropping(true, low, high, 0x2000);
-  TransmittanceEstimates e = estimate(grid.view(), hv::ClippingPlanes(), origin, glm::vec3(1, 0, 0), hv::Infinity, Samples, 300);
+  TransmittanceEstimates e = estimate(
+    grid.view(), hv::ClippingPlanes(), origin, glm::vec3(1, 0, 0), hv::Infinity, Samples, 300);
   expectTransmittance("ratio tracking, subvolume crop (d = 3)", e.ratio, std::exp(-sigma * 3.0));
   expectTransmittance("delta tracking, subvolume crop (d = 3)", e.delta, std::exp(-sigma * 3.0));
 
   // Everything but the central region: the ray crosses 7.5 - 3 = 4.5 of medium.
   grid.setCropping(true, low, high, 0x7ffffff & ~0x2000);
-  e = estimate(grid.view(), hv::ClippingPlanes(), origin, glm::vec3(1, 0, 0), hv::Infinity, Samples, 301);
-  expectTransmittance("ratio tracking, central region cropped (d = 4.5)", e.ratio, std::exp(-sigma * 4.5));
-  expectTransmittance("delta tracking, central region cropped (d = 4.5)", e.delta, std::exp(-sigma * 4.5));
+  e = estimate(
+    grid.view(), hv::ClippingPlanes(), origin, glm::vec3(1, 0, 0), hv::Infinity, Samples, 301);
+  expectTransmittance(
+    "ratio tracking, central region cropped (d = 4.5)", e.ratio, std::exp(-sigma * 4.5));
+  expectTransmittance(
+    "delta tracking, central region cropped (d = 4.5)", e.delta, std::exp(-sigma * 4.5));
 }
 
 // Scalar = linear ramp in x, opacity table (0, alpha): sigmaT(x) grows linearly from 0 to
@@ -332,7 +360,8 @@ TEST(Tracking, LinearRampOpticalDepth)
   hv::VolumeGrid grid;
   grid.setCellSize(4);
   grid.setIndexToWorld(indexToWorld());
-  grid.setScalars(Dims, hvtest::sampleField(Dims, [](const glm::vec3& p) { return p.x / (Dims.x - 1); }));
+  grid.setScalars(
+    Dims, hvtest::sampleField(Dims, [](const glm::vec3& p) { return p.x / (Dims.x - 1); }));
   const float alphaMax = 0.17f;
   grid.setTransferFunction({ 0.0f, alphaMax }, std::vector<float>(6, 1.0f), 1.0f, 1.0f);
   const hv::VolumeView v = grid.view();
@@ -348,18 +377,24 @@ TEST(Tracking, LinearRampOpticalDepth)
   };
   const Case cases[] = {
     { "ramp along +x", glm::vec3(WorldLow.x - 1.0f, centre.y, centre.z), glm::vec3(1, 0, 0) },
-    { "ramp along -x", glm::vec3(WorldHigh.x + 1.0f, centre.y + 0.2f, centre.z), glm::vec3(-1, 0, 0) },
-    { "ramp oblique", glm::vec3(WorldLow.x - 1.0f, centre.y - 0.5f, centre.z - 3.0f), glm::normalize(glm::vec3(1.0f, 0.05f, 0.6f)) },
-    { "ramp along z at s = 1/3", glm::vec3(WorldLow.x + 2.5f, centre.y, WorldLow.z - 1.0f), glm::vec3(0, 0, 1) },
+    { "ramp along -x", glm::vec3(WorldHigh.x + 1.0f, centre.y + 0.2f, centre.z),
+      glm::vec3(-1, 0, 0) },
+    { "ramp oblique", glm::vec3(WorldLow.x - 1.0f, centre.y - 0.5f, centre.z - 3.0f),
+      glm::normalize(glm::vec3(1.0f, 0.05f, 0.6f)) },
+    { "ramp along z at s = 1/3", glm::vec3(WorldLow.x + 2.5f, centre.y, WorldLow.z - 1.0f),
+      glm::vec3(0, 0, 1) },
   };
   std::uint32_t stream = 400;
   for (const Case& c : cases)
   {
     hv::IndexRay ray;
-    ASSERT_TRUE(hv::makeIndexRay(v, hv::ClippingPlanes(), c.origin, c.direction, 0.0f, hv::Infinity, ray));
+    ASSERT_TRUE(
+      hv::makeIndexRay(v, hv::ClippingPlanes(), c.origin, c.direction, 0.0f, hv::Infinity, ray));
     const glm::dvec3 o(c.origin), dir(c.direction);
-    const double tau = (ray.tMax - ray.tMin) * sigmaMax * 0.5 * (ramp(o + double(ray.tMin) * dir) + ramp(o + double(ray.tMax) * dir));
-    const TransmittanceEstimates e = estimate(v, hv::ClippingPlanes(), c.origin, c.direction, hv::Infinity, Samples, stream++);
+    const double tau = (ray.tMax - ray.tMin) * sigmaMax * 0.5 *
+      (ramp(o + double(ray.tMin) * dir) + ramp(o + double(ray.tMax) * dir));
+    const TransmittanceEstimates e =
+      estimate(v, hv::ClippingPlanes(), c.origin, c.direction, hv::Infinity, Samples, stream++);
     expectTransmittance(std::string("ratio tracking, ") + c.name, e.ratio, std::exp(-tau));
     expectTransmittance(std::string("delta tracking, ") + c.name, e.delta, std::exp(-tau));
   }
@@ -373,14 +408,15 @@ TEST(Tracking, FreeFlightDistanceDistribution)
   hv::VolumeGrid grid;
   grid.setCellSize(4);
   grid.setIndexToWorld(indexToWorld());
-  grid.setScalars(Dims, hvtest::sampleField(Dims, [](const glm::vec3& p) { return p.x / (Dims.x - 1); }));
+  grid.setScalars(
+    Dims, hvtest::sampleField(Dims, [](const glm::vec3& p) { return p.x / (Dims.x - 1); }));
   grid.setTransferFunction({ 0.0f, 0.3f }, std::vector<float>(6, 1.0f), 1.0f, 1.0f);
   const hv::VolumeView v = grid.view();
   const double sigmaMax = hvtest::extinctionOf(0.3, 1.0, 1.0);
   const glm::vec3 centre = 0.5f * (WorldLow + WorldHigh);
   hv::IndexRay ray;
-  ASSERT_TRUE(hv::makeIndexRay(v, hv::ClippingPlanes(), glm::vec3(WorldLow.x - 1.0f, centre.y, centre.z),
-    glm::vec3(1, 0, 0), 0.0f, hv::Infinity, ray));
+  ASSERT_TRUE(hv::makeIndexRay(v, hv::ClippingPlanes(),
+    glm::vec3(WorldLow.x - 1.0f, centre.y, centre.z), glm::vec3(1, 0, 0), 0.0f, hv::Infinity, ray));
   const double d = ray.tMax - ray.tMin;
   auto tau = [&](double s) { return sigmaMax * s * s / (2.0 * d); }; // s0 = 0, s1 = 1
   hv::Pcg32 rng = hv::makePixelRng(0u, 0u, 0u, 36u);
@@ -405,7 +441,8 @@ TEST(Tracking, FreeFlightDistanceDistribution)
   double ks = 0.0;
   for (std::size_t i = 0; i < cdf.size(); ++i)
   {
-    ks = std::max(ks, std::max(cdf[i] - double(i) / cdf.size(), double(i + 1) / cdf.size() - cdf[i]));
+    ks =
+      std::max(ks, std::max(cdf[i] - double(i) / cdf.size(), double(i + 1) / cdf.size() - cdf[i]));
   }
   EXPECT_LT(ks, 2.23 / std::sqrt(double(cdf.size()))) << "collision-distance distribution";
   const double p = std::exp(-tau(d));
@@ -420,9 +457,11 @@ TEST(Tracking, HeterogeneousOpticalDepth)
   hv::VolumeGrid grid;
   grid.setCellSize(4);
   grid.setIndexToWorld(indexToWorld());
-  grid.setScalars(Dims, hvtest::sampleField(Dims, [](const glm::vec3& p) {
-    return 0.5f + 0.45f * std::sin(0.55f * p.x + 0.3f) * std::cos(0.35f * p.y - 0.25f * p.z);
-  }));
+  grid.setScalars(Dims,
+    hvtest::sampleField(Dims,
+      [](const glm::vec3& p) {
+        return 0.5f + 0.45f * std::sin(0.55f * p.x + 0.3f) * std::cos(0.35f * p.y - 0.25f * p.z);
+      }));
   const std::vector<float> opacity = { 0.0f, 0.3f, 0.05f, 0.6f, 0.2f, 0.4f };
   const std::vector<float> albedo(opacity.size() * 3, 1.0f);
   const glm::vec3 centre = 0.5f * (WorldLow + WorldHigh);
@@ -433,15 +472,19 @@ TEST(Tracking, HeterogeneousOpticalDepth)
     glm::vec3 direction;
   };
   const Case cases[] = {
-    { "heterogeneous, along +x", glm::vec3(WorldLow.x - 1.0f, centre.y + 0.3f, centre.z - 0.7f), glm::vec3(1, 0, 0) },
-    { "heterogeneous, oblique", glm::vec3(WorldHigh.x + 1.0f, centre.y, WorldHigh.z + 1.0f), glm::normalize(glm::vec3(-0.5f, 0.02f, -1.0f)) },
+    { "heterogeneous, along +x", glm::vec3(WorldLow.x - 1.0f, centre.y + 0.3f, centre.z - 0.7f),
+      glm::vec3(1, 0, 0) },
+    { "heterogeneous, oblique", glm::vec3(WorldHigh.x + 1.0f, centre.y, WorldHigh.z + 1.0f),
+      glm::normalize(glm::vec3(-0.5f, 0.02f, -1.0f)) },
   };
   std::uint32_t stream = 500;
   for (const Case& c : cases)
   {
-    auto opticalDepth = [&](const hv::VolumeView& v) {
+    auto opticalDepth = [&](const hv::VolumeView& v)
+    {
       hv::IndexRay ray;
-      EXPECT_TRUE(hv::makeIndexRay(v, hv::ClippingPlanes(), c.origin, c.direction, 0.0f, hv::Infinity, ray));
+      EXPECT_TRUE(
+        hv::makeIndexRay(v, hv::ClippingPlanes(), c.origin, c.direction, 0.0f, hv::Infinity, ray));
       const int steps = 200000;
       const double h = (ray.tMax - ray.tMin) / steps;
       double tau = 0.0;
@@ -458,7 +501,8 @@ TEST(Tracking, HeterogeneousOpticalDepth)
     grid.setTransferFunction(opacity, albedo, 1.0f, densityScale);
     const hv::VolumeView v = grid.view();
     const double tau = opticalDepth(v);
-    const TransmittanceEstimates e = estimate(v, hv::ClippingPlanes(), c.origin, c.direction, hv::Infinity, Samples, stream++);
+    const TransmittanceEstimates e =
+      estimate(v, hv::ClippingPlanes(), c.origin, c.direction, hv::Infinity, Samples, stream++);
     expectTransmittance(std::string("ratio tracking, ") + c.name, e.ratio, std::exp(-tau));
     expectTransmittance(std::string("delta tracking, ") + c.name, e.delta, std::exp(-tau));
   }
@@ -468,7 +512,8 @@ TEST(Tracking, EmptyMediumIsTransparent)
 {
   hv::VolumeGrid grid;
   grid.setIndexToWorld(indexToWorld());
-  grid.setScalars(Dims, std::vector<float>(static_cast<std::size_t>(Dims.x) * Dims.y * Dims.z, 0.3f));
+  grid.setScalars(
+    Dims, std::vector<float>(static_cast<std::size_t>(Dims.x) * Dims.y * Dims.z, 0.3f));
   hvtest::setConstantTransferFunction(grid, 0.0f, glm::vec3(1.0f), 1.0f, 1.0f);
   EXPECT_TRUE(grid.isTransparent());
   const hv::VolumeView v = grid.view();
@@ -543,7 +588,8 @@ TEST(Majorant, BoundsExtinctionEverywhere)
       int violations = 0;
       for (int i = 0; i < 100000; ++i)
       {
-        glm::vec3 p = glm::vec3(rng.nextFloat(), rng.nextFloat(), rng.nextFloat()) * glm::vec3(dims - 1);
+        glm::vec3 p =
+          glm::vec3(rng.nextFloat(), rng.nextFloat(), rng.nextFloat()) * glm::vec3(dims - 1);
         if (i % 4 == 0)
         {
           // On a cell boundary: both neighbouring cells must bound it (the DDA may report either).
@@ -551,7 +597,8 @@ TEST(Majorant, BoundsExtinctionEverywhere)
           p.x = std::min(p.x, static_cast<float>(dims.x - 1));
         }
         const float sigma = v.sigmaT(p);
-        const glm::ivec3 cell = glm::min(glm::ivec3(glm::floor(p / static_cast<float>(cellSize))), v.majorantDims - 1);
+        const glm::ivec3 cell =
+          glm::min(glm::ivec3(glm::floor(p / static_cast<float>(cellSize))), v.majorantDims - 1);
         if (sigma > v.majorantOfCell(cell))
         {
           ++violations;
@@ -564,7 +611,8 @@ TEST(Majorant, BoundsExtinctionEverywhere)
           }
         }
       }
-      EXPECT_EQ(violations, 0) << "cell size " << cellSize << ", gradient opacity " << gradientOpacity;
+      EXPECT_EQ(violations, 0) << "cell size " << cellSize << ", gradient opacity "
+                               << gradientOpacity;
     }
   }
 }
@@ -575,7 +623,8 @@ TEST(Majorant, EmptyCellsHaveZeroMajorant)
   const glm::ivec3 dims(32, 8, 8);
   hv::VolumeGrid grid;
   grid.setCellSize(8);
-  grid.setScalars(dims, hvtest::sampleField(dims, [](const glm::vec3& p) { return p.x <= 16.0f ? 0.0f : 1.0f; }));
+  grid.setScalars(
+    dims, hvtest::sampleField(dims, [](const glm::vec3& p) { return p.x <= 16.0f ? 0.0f : 1.0f; }));
   grid.setTransferFunction({ 0.0f, 0.5f }, std::vector<float>(6, 1.0f), 1.0f, 1.0f);
   EXPECT_FALSE(grid.isTransparent());
   const hv::VolumeView v = grid.view();
@@ -583,7 +632,8 @@ TEST(Majorant, EmptyCellsHaveZeroMajorant)
   // cells 0 and 1 read only zeros and are skipped as empty; cell 2 reads ones.
   EXPECT_EQ(v.majorantOfCell(glm::ivec3(0, 0, 0)), 0.0f);
   EXPECT_EQ(v.majorantOfCell(glm::ivec3(1, 0, 0)), 0.0f);
-  EXPECT_GE(v.majorantOfCell(glm::ivec3(2, 0, 0)), static_cast<float>(hvtest::extinctionOf(0.5, 1.0, 1.0)));
+  EXPECT_GE(
+    v.majorantOfCell(glm::ivec3(2, 0, 0)), static_cast<float>(hvtest::extinctionOf(0.5, 1.0, 1.0)));
 }
 
 // Switching gradient opacity off again (an empty table, as vtkPathTracedVolumeMapper passes
@@ -595,9 +645,9 @@ TEST(Majorant, BoundsExtinctionAfterDisablingGradientOpacity)
   hv::VolumeGrid grid;
   grid.setCellSize(4);
   // A ball of 1 in 0: zero gradient (hence a gradient-opacity factor of ~0) away from its rim.
-  grid.setScalars(dims, hvtest::sampleField(dims, [](const glm::vec3& p) {
-    return glm::length(p - glm::vec3(11.5f)) <= 8.0f ? 1.0f : 0.0f;
-  }));
+  grid.setScalars(dims,
+    hvtest::sampleField(dims,
+      [](const glm::vec3& p) { return glm::length(p - glm::vec3(11.5f)) <= 8.0f ? 1.0f : 0.0f; }));
   grid.setTransferFunction({ 0.2f, 0.6f }, std::vector<float>(6, 1.0f), 1.0f, 1.0f);
   // Gradient opacity 0 for flat regions, 1 for strong gradients.
   grid.setGradientOpacity({ 0.0f, 1.0f }, 0.5f, 1.0f);
@@ -612,7 +662,8 @@ TEST(Majorant, BoundsExtinctionAfterDisablingGradientOpacity)
   float worst = 0.0f;
   for (int i = 0; i < 20000; ++i)
   {
-    const glm::vec3 p = glm::vec3(rng.nextFloat(), rng.nextFloat(), rng.nextFloat()) * glm::vec3(dims - 1);
+    const glm::vec3 p =
+      glm::vec3(rng.nextFloat(), rng.nextFloat(), rng.nextFloat()) * glm::vec3(dims - 1);
     const glm::ivec3 cell = glm::min(glm::ivec3(glm::floor(p / 4.0f)), v.majorantDims - 1);
     const float sigma = v.sigmaT(p);
     if (sigma > v.majorantOfCell(cell))

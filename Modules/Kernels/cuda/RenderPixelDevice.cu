@@ -17,6 +17,7 @@ __global__ void renderEyeKernel(SceneView scene, EyeView eye, unsigned int eyeIn
   {
     return;
   }
-  pixels[y * eye.width + x] = renderPixel(scene, eye, x, y, eyeIndex, frameIndex, seed, samplesPerPixel);
+  pixels[y * eye.width + x] =
+    renderPixel(scene, eye, x, y, eyeIndex, frameIndex, seed, samplesPerPixel);
 }
 }

@@ -31,7 +31,8 @@ void Distribution2D::build(int width, int height, std::vector<float> f)
     this->RowIntegral[row] = static_cast<float>(running / width);
     for (int column = 1; column <= width; ++column)
     {
-      cdf[column] = running > 0.0 ? static_cast<float>(cdf[column] / running) : static_cast<float>(column) / width;
+      cdf[column] = running > 0.0 ? static_cast<float>(cdf[column] / running)
+                                  : static_cast<float>(column) / width;
     }
     cdf[width] = 1.0f;
   }
@@ -43,7 +44,8 @@ void Distribution2D::build(int width, int height, std::vector<float> f)
   }
   for (int row = 1; row <= height; ++row)
   {
-    this->MarginalCdf[row] = total > 0.0 ? static_cast<float>(this->MarginalCdf[row] / total) : static_cast<float>(row) / height;
+    this->MarginalCdf[row] = total > 0.0 ? static_cast<float>(this->MarginalCdf[row] / total)
+                                         : static_cast<float>(row) / height;
   }
   this->MarginalCdf[height] = 1.0f;
   this->Integral = static_cast<float>(total / (static_cast<double>(width) * height));
@@ -133,16 +135,19 @@ std::string EnvironmentMap::setRadiance(int width, int height, std::vector<float
     for (int column = 0; column < width; ++column)
     {
       const std::size_t texel = static_cast<std::size_t>(row) * width + column;
-      const glm::vec3 radiance(this->Radiance[3 * texel], this->Radiance[3 * texel + 1], this->Radiance[3 * texel + 2]);
+      const glm::vec3 radiance(
+        this->Radiance[3 * texel], this->Radiance[3 * texel + 1], this->Radiance[3 * texel + 2]);
       // Importance weight luminance * sin(theta): the Jacobian of the lat-long mapping.
-      const std::size_t target = static_cast<std::size_t>(row / block) * blocksWide + column / block;
+      const std::size_t target =
+        static_cast<std::size_t>(row / block) * blocksWide + column / block;
       blockWeight[target] += luminance(radiance) * sinTheta;
       ++blockCount[target];
       float basis[9];
       evaluateSHBasis(equirectangularToDirection(glm::vec2((column + 0.5f) / width, v)), basis);
       for (int i = 0; i < 9; ++i)
       {
-        sh[i] += glm::dvec3(radiance) * static_cast<double>(basis[i] * sinTheta) * texelSolidAngleNoSin;
+        sh[i] +=
+          glm::dvec3(radiance) * static_cast<double>(basis[i] * sinTheta) * texelSolidAngleNoSin;
       }
     }
   }

@@ -42,7 +42,8 @@ void VolumeGrid::setIndexToWorld(const glm::mat4& indexToWorld)
     {
       for (int i = 0; i < this->Dims.x; ++i)
       {
-        const glm::vec3 indexGradient(0.5f * (v.voxel(v.scalar, i + 1, j, k) - v.voxel(v.scalar, i - 1, j, k)),
+        const glm::vec3 indexGradient(
+          0.5f * (v.voxel(v.scalar, i + 1, j, k) - v.voxel(v.scalar, i - 1, j, k)),
           0.5f * (v.voxel(v.scalar, i, j + 1, k) - v.voxel(v.scalar, i, j - 1, k)),
           0.5f * (v.voxel(v.scalar, i, j, k + 1) - v.voxel(v.scalar, i, j, k - 1)));
         // In quanta; the gradient of the normalised scalar is ScalarQuantum times this.
@@ -55,8 +56,8 @@ void VolumeGrid::setIndexToWorld(const glm::mat4& indexToWorld)
   this->MaximumGradient = maximum > 0.0f ? maximum : 1.0f;
 }
 
-void VolumeGrid::setTransferFunction(const std::vector<float>& opacity, const std::vector<float>& albedoRGB,
-  float unitDistance, float densityScale)
+void VolumeGrid::setTransferFunction(const std::vector<float>& opacity,
+  const std::vector<float>& albedoRGB, float unitDistance, float densityScale)
 {
   // The lookups interpolate between two table entries: a single entry means a constant.
   const std::size_t n = std::max<std::size_t>(opacity.size(), 2);
@@ -81,7 +82,8 @@ void VolumeGrid::setTransferFunction(const std::vector<float>& opacity, const st
   this->updateMajorants();
 }
 
-void VolumeGrid::setGradientOpacity(const std::vector<float>& table, float maximumRawGradient, float scalarRange)
+void VolumeGrid::setGradientOpacity(
+  const std::vector<float>& table, float maximumRawGradient, float scalarRange)
 {
   if (table.size() < 2 || this->GradientMagnitude.empty())
   {
@@ -105,7 +107,8 @@ void VolumeGrid::setGradientOpacity(const std::vector<float>& table, float maxim
   {
     // Back to raw scalar units per world unit, as VTK's gradient opacity expects.
     const float raw = this->GradientMagnitude[i] * scalarRange;
-    const float x = maximumRawGradient > 0.0f ? std::min(raw / maximumRawGradient, 1.0f) * last : 0.0f;
+    const float x =
+      maximumRawGradient > 0.0f ? std::min(raw / maximumRawGradient, 1.0f) * last : 0.0f;
     const int i0 = std::min(static_cast<int>(x), static_cast<int>(last) - 1);
     const float w = x - i0;
     this->GradientOpacityFactor[i] = std::max(0.0f, (1.0f - w) * table[i0] + w * table[i0 + 1]);
@@ -144,7 +147,8 @@ void VolumeGrid::updateCellRanges()
   const long cellCount = static_cast<long>(this->CellDims.x) * this->CellDims.y * this->CellDims.z;
   this->CellScalarLow.assign(cellCount, 1.0f);
   this->CellScalarHigh.assign(cellCount, 0.0f);
-  this->CellGradientOpacityHigh.assign(cellCount, this->GradientOpacityFactor.empty() ? 1.0f : 0.0f);
+  this->CellGradientOpacityHigh.assign(
+    cellCount, this->GradientOpacityFactor.empty() ? 1.0f : 0.0f);
   const VolumeView v = this->view();
   for (int cz = 0; cz < this->CellDims.z; ++cz)
   {
@@ -247,7 +251,8 @@ void VolumeGrid::updateEmptyDistance()
   {
     // Cell c covers index positions [c s, (c + 1) s].
     this->OccupiedLow = glm::vec3(lowCell * this->CellSize);
-    this->OccupiedHigh = glm::min(glm::vec3((highCell + 1) * this->CellSize), glm::vec3(this->Dims - 1));
+    this->OccupiedHigh =
+      glm::min(glm::vec3((highCell + 1) * this->CellSize), glm::vec3(this->Dims - 1));
   }
   else
   {
@@ -300,14 +305,16 @@ void VolumeGrid::updateEmptyDistance()
 
 bool VolumeGrid::isTransparent() const
 {
-  return std::all_of(this->Majorant.begin(), this->Majorant.end(), [](float m) { return m <= 0.0f; });
+  return std::all_of(
+    this->Majorant.begin(), this->Majorant.end(), [](float m) { return m <= 0.0f; });
 }
 
 VolumeView VolumeGrid::view() const
 {
   VolumeView v;
   v.scalar = this->Scalars.data();
-  v.gradientOpacity = this->GradientOpacityFactor.empty() ? nullptr : this->GradientOpacityFactor.data();
+  v.gradientOpacity =
+    this->GradientOpacityFactor.empty() ? nullptr : this->GradientOpacityFactor.data();
   v.dims = this->Dims;
   v.indexToWorld = this->IndexToWorld;
   v.worldToIndex = glm::inverse(this->IndexToWorld);

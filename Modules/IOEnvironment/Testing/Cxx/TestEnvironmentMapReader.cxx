@@ -58,7 +58,8 @@ std::string WriteMap(const std::string& name, bool withNaN)
   {
     pixels[3 * 7 + 1] = std::numeric_limits<float>::quiet_NaN();
   }
-  const std::string path = "/tmp/holovolume-reader-test-" + std::to_string(getpid()) + "-" + name + ".exr";
+  const std::string path =
+    "/tmp/holovolume-reader-test-" + std::to_string(getpid()) + "-" + name + ".exr";
   auto out = OIIO::ImageOutput::create(path);
   OIIO::ImageSpec spec(width, height, 3, OIIO::TypeDesc::FLOAT);
   out->open(path, spec);
@@ -84,7 +85,8 @@ int TestEnvironmentMapReader(int, char*[])
     if (radiance)
     {
       // VTK row j = 0 is the file's bottom row (row 7 from the top).
-      Expect(radiance->GetComponent(0 * 16 + 3, 0) == 3.0 && radiance->GetComponent(0 * 16 + 3, 1) == 7.0,
+      Expect(radiance->GetComponent(0 * 16 + 3, 0) == 3.0 &&
+          radiance->GetComponent(0 * 16 + 3, 1) == 7.0,
         "bottom VTK row holds the file's last row");
       Expect(radiance->GetComponent(7 * 16 + 5, 2) == 0.0, "a negative texel is clamped to zero");
     }
@@ -100,7 +102,8 @@ int TestEnvironmentMapReader(int, char*[])
     reader->AddObserver(vtkCommand::ErrorEvent, observer);
     reader->GetExecutive()->AddObserver(vtkCommand::ErrorEvent, observer);
     reader->Update();
-    Expect(observer->GetError() && observer->GetErrorMessage().find("ReplaceNonFiniteValues") != std::string::npos,
+    Expect(observer->GetError() &&
+        observer->GetErrorMessage().find("ReplaceNonFiniteValues") != std::string::npos,
       "a NaN texel is an error that names ReplaceNonFiniteValues");
     reader->ReplaceNonFiniteValuesOn();
     reader->Modified();
@@ -119,7 +122,8 @@ int TestEnvironmentMapReader(int, char*[])
     reader->AddObserver(vtkCommand::ErrorEvent, observer);
     reader->GetExecutive()->AddObserver(vtkCommand::ErrorEvent, observer);
     reader->Update();
-    Expect(observer->GetError() && observer->GetErrorMessage().find("Check the path") != std::string::npos,
+    Expect(observer->GetError() &&
+        observer->GetErrorMessage().find("Check the path") != std::string::npos,
       "a missing file says to check the path");
   }
   {
@@ -134,10 +138,12 @@ int TestEnvironmentMapReader(int, char*[])
       reader->GetOutput()->GetDimensions(dims);
       double range[2];
       reader->GetOutput()->GetPointData()->GetScalars()->GetRange(range, 0);
-      std::cout << real << ": " << dims[0] << "x" << dims[1] << ", red " << range[0] << " .. " << range[1]
-                << ", " << reader->GetNumberOfClampedNegativeValues() << " negative values clamped\n";
+      std::cout << real << ": " << dims[0] << "x" << dims[1] << ", red " << range[0] << " .. "
+                << range[1] << ", " << reader->GetNumberOfClampedNegativeValues()
+                << " negative values clamped\n";
       Expect(dims[0] == 2 * dims[1] && dims[1] >= 256, "a real panorama is equirectangular");
-      Expect(range[0] >= 0.0 && range[1] > 1000.0, "the real sunrise has a sun far brighter than 1");
+      Expect(
+        range[0] >= 0.0 && range[1] > 1000.0, "the real sunrise has a sun far brighter than 1");
     }
     else
     {

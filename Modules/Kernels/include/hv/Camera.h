@@ -18,11 +18,15 @@ struct EyeView
   int width = 1;
   int height = 1;
 
-  HV_FUNCTION void update() { this->inverseViewProjection = glm::inverse(this->projection * this->view); }
+  HV_FUNCTION void update()
+  {
+    this->inverseViewProjection = glm::inverse(this->projection * this->view);
+  }
 
   // Primary ray through the continuous pixel position (x, y), pixel centres at i + 0.5.
   // It starts on the near plane, so the camera's clipping range is honoured.
-  HV_FUNCTION void generateRay(float x, float y, glm::vec3& origin, glm::vec3& direction, float& length) const
+  HV_FUNCTION void generateRay(
+    float x, float y, glm::vec3& origin, glm::vec3& direction, float& length) const
   {
     const float ndcX = 2.0f * x / static_cast<float>(this->width) - 1.0f;
     const float ndcY = 2.0f * y / static_cast<float>(this->height) - 1.0f;

@@ -35,11 +35,11 @@ struct Distribution2DView
 {
   int width = 0;
   int height = 0;
-  const float* function = nullptr;          // width * height, row-major, the unnormalised f
-  const float* conditionalCdf = nullptr;    // height * (width + 1)
-  const float* rowIntegral = nullptr;       // height: integral of f over u for each row
-  const float* marginalCdf = nullptr;       // height + 1
-  float integral = 0.0f;                    // integral of f over [0,1]^2
+  const float* function = nullptr;       // width * height, row-major, the unnormalised f
+  const float* conditionalCdf = nullptr; // height * (width + 1)
+  const float* rowIntegral = nullptr;    // height: integral of f over u for each row
+  const float* marginalCdf = nullptr;    // height + 1
+  float integral = 0.0f;                 // integral of f over [0,1]^2
 
   HV_FUNCTION bool valid() const { return this->function != nullptr && this->integral > 0.0f; }
 
@@ -52,9 +52,8 @@ struct Distribution2DView
     const float dv = rowHigh > rowLow ? (u1 - rowLow) / (rowHigh - rowLow) : 0.5f;
     const float* cdf = this->conditionalCdf + static_cast<long>(row) * (this->width + 1);
     const int column = findCdfSegment(cdf, this->width, u2);
-    const float du = cdf[column + 1] > cdf[column]
-      ? (u2 - cdf[column]) / (cdf[column + 1] - cdf[column])
-      : 0.5f;
+    const float du =
+      cdf[column + 1] > cdf[column] ? (u2 - cdf[column]) / (cdf[column + 1] - cdf[column]) : 0.5f;
     pdf = this->function[static_cast<long>(row) * this->width + column] / this->integral;
     return glm::vec2(glm::min((column + du) / this->width, 0.99999994f),
       glm::min((row + dv) / this->height, 0.99999994f));

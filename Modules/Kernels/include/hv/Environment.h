@@ -21,8 +21,8 @@ struct EnvironmentView
   glm::mat3 worldToMap = glm::mat3(1.0f); // rotation taking world directions into the map frame
   glm::mat3 mapToWorld = glm::mat3(1.0f);
   glm::vec3 uniformRadiance = glm::vec3(1.0f);
-  float scale = 1.0f;                  // multiplies every radiance value
-  Distribution2DView distribution;     // over luminance * sin(theta); empty when uniform
+  float scale = 1.0f;              // multiplies every radiance value
+  Distribution2DView distribution; // over luminance * sin(theta); empty when uniform
   bool importanceSampling = true;
 
   HV_FUNCTION bool isUniform() const { return this->radiance == nullptr; }
@@ -90,7 +90,8 @@ struct EnvironmentView
 
   // Also returns the radiance arriving from the sampled direction, read from the sampled
   // (u, v) without mapping the direction back.
-  HV_FUNCTION glm::vec3 sampleDirection(float u1, float u2, float& solidAnglePdf, glm::vec3& sampledRadiance) const
+  HV_FUNCTION glm::vec3 sampleDirection(
+    float u1, float u2, float& solidAnglePdf, glm::vec3& sampledRadiance) const
   {
     if (this->isUniform() || !this->importanceSampling || !this->distribution.valid())
     {

@@ -28,17 +28,17 @@ struct SceneView
   PointLightView lights[MaximumLights];
   int lightCount = 0;
   int model = PathTraced;
-  int maximumBounces = 1;        // 1: single scattering with next-event estimation
-  int rouletteStartBounce = 3;   // Russian roulette from this scatter event on
-  float anisotropy = 0.0f;       // Henyey-Greenstein g
+  int maximumBounces = 1;          // 1: single scattering with next-event estimation
+  int rouletteStartBounce = 3;     // Russian roulette from this scatter event on
+  float anisotropy = 0.0f;         // Henyey-Greenstein g
   bool environmentVisible = false; // show the environment behind the volume
   // Ray-marched models only.
-  float stepLength = 1.0f;       // world units
+  float stepLength = 1.0f; // world units
   float ambient = 0.1f;
   float diffuse = 0.7f;
   float specular = 0.2f;
   float specularPower = 10.0f;
-  glm::vec3 irradianceSH[9];     // order-2 spherical harmonics of the map-frame radiance
+  glm::vec3 irradianceSH[9]; // order-2 spherical harmonics of the map-frame radiance
 };
 
 // What one pixel returns for one frame. Radiance is the mean over the frame's samples
@@ -66,8 +66,8 @@ struct FirstScatter
 
 // Local optical state at an index-space point: albedo, unit world normal facing the viewer,
 // normalised gradient magnitude.
-HV_FUNCTION void shadingFrame(const VolumeView& volume, const glm::vec3& p, const glm::vec3& rayDirection,
-  glm::vec3& albedo, glm::vec3& normal, float& gradientMagnitude)
+HV_FUNCTION void shadingFrame(const VolumeView& volume, const glm::vec3& p,
+  const glm::vec3& rayDirection, glm::vec3& albedo, glm::vec3& normal, float& gradientMagnitude)
 {
   albedo = volume.transfer.albedoAt(volume.scalarAt(p));
   const glm::vec3 gradient = volume.worldGradient(p);
@@ -83,8 +83,8 @@ HV_FUNCTION void shadingFrame(const VolumeView& volume, const glm::vec3& p, cons
 // Directional density of a scatter event for a new propagation direction: the HG phase
 // function for a volume event, cos+/pi (the Lambertian BRDF times the cosine) for a surface
 // event. Both integrate to one, so the event's albedo is the path-throughput weight.
-HV_FUNCTION float scatterDensity(bool surfaceEvent, const glm::vec3& normal, const glm::vec3& incoming,
-  const glm::vec3& outgoing, float g)
+HV_FUNCTION float scatterDensity(bool surfaceEvent, const glm::vec3& normal,
+  const glm::vec3& incoming, const glm::vec3& outgoing, float g)
 {
   if (surfaceEvent)
   {
@@ -93,8 +93,8 @@ HV_FUNCTION float scatterDensity(bool surfaceEvent, const glm::vec3& normal, con
   return henyeyGreenstein(glm::dot(incoming, outgoing), g);
 }
 
-HV_FUNCTION float transmittanceTowards(const SceneView& scene, const glm::vec3& x, const glm::vec3& direction,
-  float distance, Pcg32& rng)
+HV_FUNCTION float transmittanceTowards(const SceneView& scene, const glm::vec3& x,
+  const glm::vec3& direction, float distance, Pcg32& rng)
 {
   IndexRay ray;
   if (!makeIndexRay(scene.volume, scene.clipping, x, direction, RayEpsilon, distance, ray))
@@ -108,8 +108,8 @@ HV_FUNCTION float transmittanceTowards(const SceneView& scene, const glm::vec3& 
 // next-event estimation, and multiple importance sampling between the environment and the
 // phase function / BRDF). Returns the radiance along the ray; `covered` tells whether the
 // primary ray had a real collision.
-HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::vec3 direction, float tMax,
-  Pcg32& rng, FirstScatter& first, bool& covered)
+HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::vec3 direction,
+  float tMax, Pcg32& rng, FirstScatter& first, bool& covered)
 {
   const VolumeView& volume = scene.volume;
   glm::vec3 radiance(0.0f);
@@ -122,7 +122,8 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
     IndexRay ray;
     float tCollision = 0.0f;
     const float tStart = scatterEvents == 0 ? 0.0f : RayEpsilon;
-    const bool collided = makeIndexRay(volume, scene.clipping, origin, direction, tStart, tMax, ray) &&
+    const bool collided =
+      makeIndexRay(volume, scene.clipping, origin, direction, tStart, tMax, ray) &&
       sampleFreeFlight(volume, ray, rng, tCollision);
     if (!collided)
     {
@@ -138,7 +139,8 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
         // The environment reached by phase/BRDF sampling, weighted against light sampling.
         float lightPdf;
         const glm::vec3 environmentRadiance = scene.environment.evaluate(direction, lightPdf);
-        radiance += throughput * powerHeuristic(previousDirectionalPdf, lightPdf) * environmentRadiance;
+        radiance +=
+          throughput * powerHeuristic(previousDirectionalPdf, lightPdf) * environmentRadiance;
       }
       break;
     }
@@ -174,7 +176,8 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
       glm::vec3 toLight;
       float distance;
       const glm::vec3 intensity = evaluateLight(scene.lights[i], position, toLight, distance);
-      const float density = scatterDensity(surfaceEvent, normal, direction, toLight, scene.anisotropy);
+      const float density =
+        scatterDensity(surfaceEvent, normal, direction, toLight, scene.anisotropy);
       if (density > 0.0f && (intensity.x + intensity.y + intensity.z) > 0.0f)
       {
         // Irradiance pi * I so that a white Lambertian surface facing a light of intensity I
@@ -187,9 +190,10 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
     {
       float lightPdf;
       glm::vec3 environmentRadiance;
-      const glm::vec3 toLight =
-        scene.environment.sampleDirection(rng.nextFloat(), rng.nextFloat(), lightPdf, environmentRadiance);
-      const float density = scatterDensity(surfaceEvent, normal, direction, toLight, scene.anisotropy);
+      const glm::vec3 toLight = scene.environment.sampleDirection(
+        rng.nextFloat(), rng.nextFloat(), lightPdf, environmentRadiance);
+      const float density =
+        scatterDensity(surfaceEvent, normal, direction, toLight, scene.anisotropy);
       if (lightPdf > 0.0f && density > 0.0f)
       {
         if (environmentRadiance.x + environmentRadiance.y + environmentRadiance.z > 0.0f)
@@ -213,7 +217,8 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
     {
       next = sampleHenyeyGreenstein(direction, scene.anisotropy, u1, u2);
     }
-    previousDirectionalPdf = scatterDensity(surfaceEvent, normal, direction, next, scene.anisotropy);
+    previousDirectionalPdf =
+      scatterDensity(surfaceEvent, normal, direction, next, scene.anisotropy);
     if (previousDirectionalPdf <= 0.0f)
     {
       break;
@@ -253,8 +258,8 @@ HV_FUNCTION glm::vec3 irradianceFromSH(const glm::vec3* L, const glm::vec3& n)
 
 // The three reference models: front-to-back compositing at a fixed step (jittered per
 // sample), skipping empty macrocells. Radiance is premultiplied by the accumulated opacity.
-HV_FUNCTION glm::vec4 marchRay(const SceneView& scene, const glm::vec3& origin, const glm::vec3& direction,
-  float tMax, Pcg32& rng, FirstScatter& first)
+HV_FUNCTION glm::vec4 marchRay(const SceneView& scene, const glm::vec3& origin,
+  const glm::vec3& direction, float tMax, Pcg32& rng, FirstScatter& first)
 {
   first.valid = false;
   IndexRay ray;
@@ -305,13 +310,15 @@ HV_FUNCTION glm::vec4 marchRay(const SceneView& scene, const glm::vec3& origin, 
           {
             glm::vec3 toLight;
             float distance;
-            const glm::vec3 intensity = evaluateLight(scene.lights[i], origin + t * direction, toLight, distance);
+            const glm::vec3 intensity =
+              evaluateLight(scene.lights[i], origin + t * direction, toLight, distance);
             // Two-sided as in VTK's volume shading; no shadows.
             const float nDotL = glm::abs(glm::dot(normal, toLight));
             const glm::vec3 reflected = 2.0f * glm::dot(normal, toLight) * normal - toLight;
             const float rDotV = glm::max(glm::dot(reflected, -direction), 0.0f);
-            lit += intensity * (scene.diffuse * nDotL * albedo +
-                                 scene.specular * glm::pow(rDotV, scene.specularPower));
+            lit += intensity *
+              (scene.diffuse * nDotL * albedo +
+                scene.specular * glm::pow(rDotV, scene.specularPower));
           }
           shaded = lit;
         }
@@ -319,11 +326,15 @@ HV_FUNCTION glm::vec4 marchRay(const SceneView& scene, const glm::vec3& origin, 
         {
           // Irradiance E(n) / pi where the gradient defines a surface, the mean radiance
           // (what an isotropic phase function gathers) inside homogeneous material.
-          const float surfaceProbability = 1.0f - glm::exp(-volume.surfaceFactor * gradientMagnitude);
+          const float surfaceProbability =
+            1.0f - glm::exp(-volume.surfaceFactor * gradientMagnitude);
           const glm::vec3 mapNormal = scene.environment.worldToMap * normal;
-          const glm::vec3 irradiance = scene.environment.scale * glm::max(irradianceFromSH(scene.irradianceSH, mapNormal), glm::vec3(0.0f));
-          const glm::vec3 meanRadiance = scene.environment.scale * scene.irradianceSH[0] * 0.282095f;
-          shaded = albedo * (surfaceProbability * irradiance * InvPi + (1.0f - surfaceProbability) * meanRadiance);
+          const glm::vec3 irradiance = scene.environment.scale *
+            glm::max(irradianceFromSH(scene.irradianceSH, mapNormal), glm::vec3(0.0f));
+          const glm::vec3 meanRadiance =
+            scene.environment.scale * scene.irradianceSH[0] * 0.282095f;
+          shaded = albedo *
+            (surfaceProbability * irradiance * InvPi + (1.0f - surfaceProbability) * meanRadiance);
         }
         color += transmittance * alpha * shaded;
         if (recordsFirst)
@@ -352,7 +363,8 @@ HV_FUNCTION glm::vec4 marchRay(const SceneView& scene, const glm::vec3& origin, 
 // projection of its bounding box, one pixel wider for the jittered samples. Pixels outside
 // it see neither scattering nor absorption, so a renderer may skip them when the environment
 // is not shown. Returns the whole image when a corner is behind the eye.
-HV_FUNCTION void occupiedScreenRectangle(const VolumeView& volume, const EyeView& eye, int& x0, int& y0, int& x1, int& y1)
+HV_FUNCTION void occupiedScreenRectangle(
+  const VolumeView& volume, const EyeView& eye, int& x0, int& y0, int& x1, int& y1)
 {
   x0 = 0;
   y0 = 0;
@@ -369,7 +381,8 @@ HV_FUNCTION void occupiedScreenRectangle(const VolumeView& volume, const EyeView
   glm::vec2 lowPixel(Infinity), highPixel(-Infinity);
   for (int corner = 0; corner < 8; ++corner)
   {
-    const glm::vec3 index((corner & 1) ? high.x : low.x, (corner & 2) ? high.y : low.y, (corner & 4) ? high.z : low.z);
+    const glm::vec3 index(
+      (corner & 1) ? high.x : low.x, (corner & 2) ? high.y : low.y, (corner & 4) ? high.z : low.z);
     const glm::vec3 world = glm::vec3(volume.indexToWorld * glm::vec4(index, 1.0f));
     glm::vec2 pixel;
     float depth;
@@ -392,7 +405,9 @@ HV_FUNCTION PixelResult renderPixel(const SceneView& scene, const EyeView& eye, 
   std::uint32_t eyeIndex, std::uint32_t frameIndex, std::uint64_t seed, int samplesPerPixel)
 {
   PixelResult result;
-  const std::uint32_t pixelIndex = static_cast<std::uint32_t>(y) * static_cast<std::uint32_t>(eye.width) + static_cast<std::uint32_t>(x);
+  const std::uint32_t pixelIndex =
+    static_cast<std::uint32_t>(y) * static_cast<std::uint32_t>(eye.width) +
+    static_cast<std::uint32_t>(x);
   Pcg32 rng = makePixelRng(pixelIndex, frameIndex, eyeIndex, seed);
   glm::vec3 sum(0.0f);
   float coverage = 0.0f;

@@ -69,7 +69,8 @@ HV_FUNCTION glm::vec3 sampleHenyeyGreenstein(const glm::vec3& incoming, float g,
   cosTheta = clampf(cosTheta, -1.0f, 1.0f);
   const float sinTheta = glm::sqrt(glm::max(0.0f, 1.0f - cosTheta * cosTheta));
   const float phi = TwoPi * u2;
-  return fromLocal(glm::vec3(sinTheta * glm::cos(phi), sinTheta * glm::sin(phi), cosTheta), incoming);
+  return fromLocal(
+    glm::vec3(sinTheta * glm::cos(phi), sinTheta * glm::sin(phi), cosTheta), incoming);
 }
 
 // Veach's power heuristic with beta = 2 for two strategies with one sample each.

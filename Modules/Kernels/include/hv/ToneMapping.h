@@ -30,7 +30,8 @@ HV_FUNCTION float encodeSRGB(float linear)
 
 // Display value of one premultiplied linear RGBA pixel: un-premultiply, scale by the exposure
 // (a linear factor, 2^stops), tone-map, encode as sRGB and premultiply again, 8 bits each.
-HV_FUNCTION void toneMapPixel(const float* rgba, float exposureScale, int toneOperator, std::uint8_t* out)
+HV_FUNCTION void toneMapPixel(
+  const float* rgba, float exposureScale, int toneOperator, std::uint8_t* out)
 {
   const float alpha = clampf(rgba[3], 0.0f, 1.0f);
   for (int c = 0; c < 3; ++c)

@@ -166,7 +166,8 @@ struct MajorantIterator
 
   HV_FUNCTION void advance(const VolumeView& volume)
   {
-    const int distance = volume.emptyDistance != nullptr ? volume.emptyDistanceOfCell(this->cell) : 0;
+    const int distance =
+      volume.emptyDistance != nullptr ? volume.emptyDistanceOfCell(this->cell) : 0;
     if (distance > 1)
     {
       // Leap to where the ray leaves the empty cube of cells within distance - 1.
@@ -176,7 +177,8 @@ struct MajorantIterator
       {
         if (this->step[axis] != 0)
         {
-          const int face = this->step[axis] > 0 ? this->cell[axis] + distance : this->cell[axis] - distance + 1;
+          const int face =
+            this->step[axis] > 0 ? this->cell[axis] + distance : this->cell[axis] - distance + 1;
           leap = glm::min(leap, (face * cellSize - this->origin[axis]) / this->direction[axis]);
         }
       }
@@ -216,7 +218,8 @@ struct MajorantIterator
 // first real collision with density sigmaT(t) exp(-int_0^t sigmaT), unbiased for any
 // majorant >= sigmaT (Woodcock et al. 1965; Novak et al. 2018, Sec. 4). Returns false when
 // the ray leaves the medium, which happens with probability equal to the transmittance.
-HV_FUNCTION bool sampleFreeFlight(const VolumeView& volume, const IndexRay& ray, Pcg32& rng, float& tCollision)
+HV_FUNCTION bool sampleFreeFlight(
+  const VolumeView& volume, const IndexRay& ray, Pcg32& rng, float& tCollision)
 {
   MajorantIterator it;
   it.begin(volume, ray);

@@ -175,12 +175,16 @@ struct VolumeView
 
   HV_FUNCTION int emptyDistanceOfCell(const glm::ivec3& c) const
   {
-    return this->emptyDistance[(static_cast<long>(c.z) * this->majorantDims.y + c.y) * this->majorantDims.x + c.x];
+    return this
+      ->emptyDistance[(static_cast<long>(c.z) * this->majorantDims.y + c.y) * this->majorantDims.x +
+        c.x];
   }
 
   HV_FUNCTION float majorantOfCell(const glm::ivec3& c) const
   {
-    return this->majorant[(static_cast<long>(c.z) * this->majorantDims.y + c.y) * this->majorantDims.x + c.x];
+    return this
+      ->majorant[(static_cast<long>(c.z) * this->majorantDims.y + c.y) * this->majorantDims.x +
+        c.x];
   }
 };
 }

@@ -32,7 +32,8 @@ public:
 
   // VTK's gradient opacity: a table over the gradient magnitude in raw scalar units per world
   // unit, sampled on [0, maximumRawGradient]; an empty table disables it.
-  void setGradientOpacity(const std::vector<float>& table, float maximumRawGradient, float scalarRange);
+  void setGradientOpacity(
+    const std::vector<float>& table, float maximumRawGradient, float scalarRange);
 
   void setCellSize(int cellSize);
   void setSurfaceFactor(float factor) { this->SurfaceFactor = factor; }

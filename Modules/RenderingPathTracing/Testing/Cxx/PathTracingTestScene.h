@@ -39,7 +39,8 @@ inline vtkSmartPointer<vtkImageData> MakeVolume(int size = 48)
       for (int i = 0; i < size; ++i)
       {
         const double r = std::sqrt((i - c) * (i - c) + (j - c) * (j - c) + (k - c) * (k - c));
-        const double rc = std::sqrt((i - c - 5) * (i - c - 5) + (j - c + 3) * (j - c + 3) + (k - c) * (k - c));
+        const double rc =
+          std::sqrt((i - c - 5) * (i - c - 5) + (j - c + 3) * (j - c + 3) + (k - c) * (k - c));
         double v = 0.0;
         if (r < 0.375 * size)
         {
@@ -143,12 +144,12 @@ inline void PlaceCamera(vtkCamera* camera)
 #include "vtkUnsignedCharArray.h"
 #include "vtkWindowToImageFilter.h"
 
-#include <iostream>
-#include <string>
 #include "vtkRenderWindow.h"
 #include "vtkRenderWindowInteractor.h"
 #include "vtkRenderer.h"
 #include "vtkVolume.h"
+#include <iostream>
+#include <string>
 
 namespace pathtracingtest
 {
@@ -270,7 +271,8 @@ inline int RunModelBaseline(int argc, char* argv[], int model, int samplesPerPix
     name = name.substr(name.find_last_of('/') + 1);
     vtkNew<vtkPNGWriter> writer;
     writer->SetInputConnection(capture->GetOutputPort());
-    writer->SetFileName((std::string(testing->GetTempDirectory()) + "/first-frame-" + name).c_str());
+    writer->SetFileName(
+      (std::string(testing->GetTempDirectory()) + "/first-frame-" + name).c_str());
     writer->Write();
   }
 
@@ -344,8 +346,8 @@ struct OffscreenScene
 
   int RenderStereo(int size)
   {
-    return this->Mapper->RenderStereoFrame(
-      this->Volume, this->View[0], this->Projection[0], this->View[1], this->Projection[1], size, size);
+    return this->Mapper->RenderStereoFrame(this->Volume, this->View[0], this->Projection[0],
+      this->View[1], this->Projection[1], size, size);
   }
 };
 }

@@ -44,8 +44,10 @@ void OnEvent(vtkObject* caller, unsigned long event, void* clientData, void*)
 
 std::vector<float> Radiance(vtkPathTracedVolumeMapper* mapper)
 {
-  auto* array = vtkFloatArray::SafeDownCast(mapper->GetEyeOutput(0)->GetPointData()->GetArray("Radiance"));
-  return std::vector<float>(array->GetPointer(0), array->GetPointer(0) + array->GetNumberOfValues());
+  auto* array =
+    vtkFloatArray::SafeDownCast(mapper->GetEyeOutput(0)->GetPointData()->GetArray("Radiance"));
+  return std::vector<float>(
+    array->GetPointer(0), array->GetPointer(0) + array->GetNumberOfValues());
 }
 
 double RootMeanSquareError(const std::vector<float>& a, const std::vector<float>& b)
@@ -63,7 +65,8 @@ int TestPathTracedAccumulation(int, char*[])
 {
   const int size = 48;
   int failures = 0;
-  auto expect = [&](bool condition, const char* what) {
+  auto expect = [&](bool condition, const char* what)
+  {
     if (!condition)
     {
       std::cerr << "FAILED: " << what << "\n";
@@ -75,7 +78,8 @@ int TestPathTracedAccumulation(int, char*[])
   pathtracingtest::OffscreenScene reference;
   reference.Mapper->SetSamplesPerPixel(256);
   reference.Mapper->SetSeed(1000);
-  reference.Mapper->RenderEye(reference.Volume, 0, reference.View[0], reference.Projection[0], size, size);
+  reference.Mapper->RenderEye(
+    reference.Volume, 0, reference.View[0], reference.Projection[0], size, size);
   const std::vector<float> converged = Radiance(reference.Mapper);
 
   pathtracingtest::OffscreenScene scene;
@@ -86,7 +90,8 @@ int TestPathTracedAccumulation(int, char*[])
   scene.Mapper->AddObserver(vtkCommand::ProgressEvent, callback);
   scene.Mapper->AddObserver(vtkCommand::StartEvent, callback);
   scene.Mapper->AddObserver(vtkCommand::EndEvent, callback);
-  auto render = [&]() {
+  auto render = [&]()
+  {
     return scene.Mapper->RenderEye(scene.Volume, 0, scene.View[0], scene.Projection[0], size, size);
   };
 
@@ -94,13 +99,15 @@ int TestPathTracedAccumulation(int, char*[])
   for (int frame = 1; frame <= 16; ++frame)
   {
     render();
-    expect(scene.Mapper->GetAccumulatedFrames(0) == frame, "accumulated frames count up while nothing changes");
+    expect(scene.Mapper->GetAccumulatedFrames(0) == frame,
+      "accumulated frames count up while nothing changes");
     if (frame == 1 || frame == 4 || frame == 16)
     {
       errors.push_back(RootMeanSquareError(Radiance(scene.Mapper), converged));
     }
   }
-  std::cout << "RMSE after 1, 4, 16 frames: " << errors[0] << " " << errors[1] << " " << errors[2] << "\n";
+  std::cout << "RMSE after 1, 4, 16 frames: " << errors[0] << " " << errors[1] << " " << errors[2]
+            << "\n";
   // Monte-Carlo error falls as 1/sqrt(frames): 16 frames should at least halve it twice over
   // (ratio 4 ideal; 2.5 leaves room for the reference's own noise).
   expect(errors[0] / errors[2] > 2.5, "error falls with accumulated frames");
@@ -133,7 +140,8 @@ int TestPathTracedAccumulation(int, char*[])
   render();
   scene.Property->GetScalarOpacity()->AddPoint(1500, 0.5);
   render();
-  expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "a transfer-function change restarts the accumulation");
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 1,
+    "a transfer-function change restarts the accumulation");
 
   // Environment change restarts.
   render();
@@ -148,7 +156,8 @@ int TestPathTracedAccumulation(int, char*[])
   input->GetPointData()->GetScalars()->Modified();
   input->Modified();
   render();
-  expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "modified input data restarts the accumulation");
+  expect(
+    scene.Mapper->GetAccumulatedFrames(0) == 1, "modified input data restarts the accumulation");
 
   // A change of the lights restarts.
   vtkNew<vtkLightCollection> lights;
@@ -156,8 +165,10 @@ int TestPathTracedAccumulation(int, char*[])
   light->SetPosition(0, 0, 50);
   light->SetFocalPoint(0, 0, 0);
   lights->AddItem(light);
-  auto renderLit = [&]() {
-    return scene.Mapper->RenderEye(scene.Volume, 0, scene.View[0], scene.Projection[0], size, size, lights);
+  auto renderLit = [&]()
+  {
+    return scene.Mapper->RenderEye(
+      scene.Volume, 0, scene.View[0], scene.Projection[0], size, size, lights);
   };
   renderLit();
   renderLit();
@@ -180,6 +191,7 @@ int TestPathTracedAccumulation(int, char*[])
   scene.Mapper->ProgressiveAccumulationOff();
   render();
   render();
-  expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "no accumulation when ProgressiveAccumulation is off");
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 1,
+    "no accumulation when ProgressiveAccumulation is off");
   return failures == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
 }

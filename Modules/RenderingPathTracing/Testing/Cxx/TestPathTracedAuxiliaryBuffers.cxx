@@ -36,10 +36,12 @@ struct EyeBuffers
     this->Normal = vtkFloatArray::SafeDownCast(pd->GetArray("Normal"));
     this->Valid = vtkUnsignedCharArray::SafeDownCast(pd->GetArray("FirstScatterValid"));
     auto* view = vtkDoubleArray::SafeDownCast(image->GetFieldData()->GetArray("ViewMatrix"));
-    auto* projection = vtkDoubleArray::SafeDownCast(image->GetFieldData()->GetArray("ProjectionMatrix"));
+    auto* projection =
+      vtkDoubleArray::SafeDownCast(image->GetFieldData()->GetArray("ProjectionMatrix"));
     if (view && projection)
     {
-      vtkMatrix4x4::Multiply4x4(projection->GetPointer(0), view->GetPointer(0), this->ViewProjection);
+      vtkMatrix4x4::Multiply4x4(
+        projection->GetPointer(0), view->GetPointer(0), this->ViewProjection);
       std::copy(view->GetPointer(0), view->GetPointer(0) + 16, this->View);
     }
   }
@@ -91,7 +93,8 @@ int TestPathTracedAuxiliaryBuffers(int, char*[])
   for (int i = 0; i < 16; ++i)
   {
     // The kernels keep matrices in single precision.
-    if (std::abs(left.View[i] - scene.View[0]->GetElement(i / 4, i % 4)) > 1e-5 * (1.0 + std::abs(left.View[i])))
+    if (std::abs(left.View[i] - scene.View[0]->GetElement(i / 4, i % 4)) >
+      1e-5 * (1.0 + std::abs(left.View[i])))
     {
       std::cerr << "ViewMatrix in the field data differs from the matrix rendered with.\n";
       ++failures;
@@ -99,7 +102,8 @@ int TestPathTracedAuxiliaryBuffers(int, char*[])
     }
   }
 
-  auto interior = [&](const EyeBuffers& eye, int x, int y) {
+  auto interior = [&](const EyeBuffers& eye, int x, int y)
+  {
     for (int dy = -1; dy <= 1; ++dy)
     {
       for (int dx = -1; dx <= 1; ++dx)
@@ -127,7 +131,8 @@ int TestPathTracedAuxiliaryBuffers(int, char*[])
       ++hits;
       const float* position = left.Position->GetPointer(3 * pixel);
       double own[2];
-      if (left.Project(position, size, own) && static_cast<int>(own[0]) == x && static_cast<int>(own[1]) == y)
+      if (left.Project(position, size, own) && static_cast<int>(own[0]) == x &&
+        static_cast<int>(own[1]) == y)
       {
         ++ownPixel;
       }
@@ -170,8 +175,9 @@ int TestPathTracedAuxiliaryBuffers(int, char*[])
       }
     }
   }
-  std::cout << "left hits " << hits << ", own pixel " << ownPixel << ", compared in right eye " << compared
-            << ", within one pixel " << matched << " (" << 100.0 * matched / std::max(compared, 1) << " %)\n";
+  std::cout << "left hits " << hits << ", own pixel " << ownPixel << ", compared in right eye "
+            << compared << ", within one pixel " << matched << " ("
+            << 100.0 * matched / std::max(compared, 1) << " %)\n";
   if (hits < 500)
   {
     std::cerr << "Too few covered pixels (" << hits << ") for a meaningful test.\n";
@@ -179,12 +185,14 @@ int TestPathTracedAuxiliaryBuffers(int, char*[])
   }
   if (ownPixel != hits)
   {
-    std::cerr << hits - ownPixel << " first-scatter positions do not project into their own pixel.\n";
+    std::cerr << hits - ownPixel
+              << " first-scatter positions do not project into their own pixel.\n";
     ++failures;
   }
   if (compared < hits / 2 || matched < 0.95 * compared)
   {
-    std::cerr << "Left-to-right reprojection matched only " << matched << " of " << compared << " pixels.\n";
+    std::cerr << "Left-to-right reprojection matched only " << matched << " of " << compared
+              << " pixels.\n";
     ++failures;
   }
   if (badDepth > 0 || badNormal > 0)

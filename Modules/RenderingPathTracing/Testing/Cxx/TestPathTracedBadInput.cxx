@@ -18,18 +18,20 @@ int failures = 0;
 
 // Runs `action` and checks that an error (or a warning) containing `expected` was reported.
 template <typename Action>
-void ExpectMessage(vtkPathTracedVolumeMapper* mapper, bool warning, const std::string& expected, Action action)
+void ExpectMessage(
+  vtkPathTracedVolumeMapper* mapper, bool warning, const std::string& expected, Action action)
 {
   vtkNew<vtkTest::ErrorObserver> observer;
-  const unsigned long tag = mapper->AddObserver(warning ? vtkCommand::WarningEvent : vtkCommand::ErrorEvent, observer);
+  const unsigned long tag =
+    mapper->AddObserver(warning ? vtkCommand::WarningEvent : vtkCommand::ErrorEvent, observer);
   action();
   mapper->RemoveObserver(tag);
   const bool reported = warning ? observer->GetWarning() : observer->GetError();
   const std::string message = warning ? observer->GetWarningMessage() : observer->GetErrorMessage();
   if (!reported || message.find(expected) == std::string::npos)
   {
-    std::cerr << "FAILED: expected a " << (warning ? "warning" : "error") << " containing '" << expected
-              << "', got '" << message << "'\n";
+    std::cerr << "FAILED: expected a " << (warning ? "warning" : "error") << " containing '"
+              << expected << "', got '" << message << "'\n";
     ++failures;
   }
 }
@@ -49,7 +51,8 @@ int TestPathTracedBadInput(int, char*[])
     vectors->SetDimensions(8, 8, 8);
     vectors->AllocateScalars(VTK_FLOAT, 3);
     scene.Mapper->SetInputData(vectors);
-    ExpectMessage(scene.Mapper, false, "vtkImageExtractComponents", [&] { scene.RenderStereo(size); });
+    ExpectMessage(
+      scene.Mapper, false, "vtkImageExtractComponents", [&] { scene.RenderStereo(size); });
   }
   {
     pathtracingtest::OffscreenScene scene;
@@ -70,8 +73,8 @@ int TestPathTracedBadInput(int, char*[])
     scene.Property->SetScalarOpacity(zero);
     ExpectMessage(scene.Mapper, true, "Add opacity points", [&] { scene.RenderStereo(size); });
     // Still renders: an empty, transparent image.
-    auto* radiance =
-      vtkFloatArray::SafeDownCast(scene.Mapper->GetEyeOutput(0)->GetPointData()->GetArray("Radiance"));
+    auto* radiance = vtkFloatArray::SafeDownCast(
+      scene.Mapper->GetEyeOutput(0)->GetPointData()->GetArray("Radiance"));
     if (!radiance || radiance->GetRange(3)[1] != 0.0)
     {
       std::cerr << "FAILED: a zero-opacity volume should render fully transparent\n";
@@ -101,20 +104,25 @@ int TestPathTracedBadInput(int, char*[])
     pathtracingtest::OffscreenScene scene;
     vtkNew<vtkMatrix4x4> zero;
     zero->Zero();
-    ExpectMessage(scene.Mapper, false, "singular", [&] {
-      scene.Mapper->RenderStereoFrame(scene.Volume, zero, zero, scene.View[1], scene.Projection[1], size, size);
-    });
-    ExpectMessage(scene.Mapper, false, "positive width", [&] {
-      scene.Mapper->RenderStereoFrame(
-        scene.Volume, scene.View[0], scene.Projection[0], scene.View[1], scene.Projection[1], 0, size);
-    });
+    ExpectMessage(scene.Mapper, false, "singular",
+      [&]
+      {
+        scene.Mapper->RenderStereoFrame(
+          scene.Volume, zero, zero, scene.View[1], scene.Projection[1], size, size);
+      });
+    ExpectMessage(scene.Mapper, false, "positive width",
+      [&]
+      {
+        scene.Mapper->RenderStereoFrame(scene.Volume, scene.View[0], scene.Projection[0],
+          scene.View[1], scene.Projection[1], 0, size);
+      });
     ExpectMessage(scene.Mapper, false, "must be 0", [&] { scene.Mapper->GetEyeOutput(2); });
-    ExpectMessage(scene.Mapper, false, "must be 0", [&] {
-      scene.Mapper->RenderEye(scene.Volume, 3, scene.View[0], scene.Projection[0], size, size);
-    });
-    ExpectMessage(scene.Mapper, false, "vtkVolume", [&] {
-      scene.Mapper->RenderEye(nullptr, 0, scene.View[0], scene.Projection[0], size, size);
-    });
+    ExpectMessage(scene.Mapper, false, "must be 0",
+      [&] {
+        scene.Mapper->RenderEye(scene.Volume, 3, scene.View[0], scene.Projection[0], size, size);
+      });
+    ExpectMessage(scene.Mapper, false, "vtkVolume",
+      [&] { scene.Mapper->RenderEye(nullptr, 0, scene.View[0], scene.Projection[0], size, size); });
   }
   return failures == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
 }

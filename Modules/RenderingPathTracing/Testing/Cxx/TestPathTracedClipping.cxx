@@ -16,7 +16,8 @@ namespace
 // Coverage (alpha) of the left and right halves of the image, away from the centre line.
 void HalfCoverage(vtkPathTracedVolumeMapper* mapper, int size, double& left, double& right)
 {
-  auto* radiance = vtkFloatArray::SafeDownCast(mapper->GetEyeOutput(0)->GetPointData()->GetArray("Radiance"));
+  auto* radiance =
+    vtkFloatArray::SafeDownCast(mapper->GetEyeOutput(0)->GetPointData()->GetArray("Radiance"));
   left = right = 0.0;
   for (int y = 0; y < size; ++y)
   {

@@ -25,11 +25,14 @@ std::vector<float> RenderRadiance(int threads, vtkTypeUInt32 seed)
   std::vector<float> values;
   for (int eye = 0; eye < 2; ++eye)
   {
-    auto* radiance = vtkFloatArray::SafeDownCast(scene.Mapper->GetEyeOutput(eye)->GetPointData()->GetArray("Radiance"));
-    values.insert(values.end(), radiance->GetPointer(0), radiance->GetPointer(0) + radiance->GetNumberOfValues());
-    auto* position =
-      vtkFloatArray::SafeDownCast(scene.Mapper->GetEyeOutput(eye)->GetPointData()->GetArray("FirstScatterPosition"));
-    values.insert(values.end(), position->GetPointer(0), position->GetPointer(0) + position->GetNumberOfValues());
+    auto* radiance = vtkFloatArray::SafeDownCast(
+      scene.Mapper->GetEyeOutput(eye)->GetPointData()->GetArray("Radiance"));
+    values.insert(values.end(), radiance->GetPointer(0),
+      radiance->GetPointer(0) + radiance->GetNumberOfValues());
+    auto* position = vtkFloatArray::SafeDownCast(
+      scene.Mapper->GetEyeOutput(eye)->GetPointData()->GetArray("FirstScatterPosition"));
+    values.insert(values.end(), position->GetPointer(0),
+      position->GetPointer(0) + position->GetNumberOfValues());
   }
   return values;
 }
@@ -46,7 +49,8 @@ int TestPathTracedDeterminism(int, char*[])
   const std::vector<float> twoThreads = RenderRadiance(2, 42);
   const std::vector<float> again = RenderRadiance(2, 42);
   const std::vector<float> otherSeed = RenderRadiance(2, 43);
-  std::cout << "SMP backend " << vtkSMPTools::GetBackend() << ", " << oneThread.size() << " values\n";
+  std::cout << "SMP backend " << vtkSMPTools::GetBackend() << ", " << oneThread.size()
+            << " values\n";
   int failures = 0;
   if (!Identical(oneThread, twoThreads))
   {

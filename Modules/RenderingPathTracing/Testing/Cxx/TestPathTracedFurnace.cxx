@@ -14,10 +14,13 @@
 
 namespace
 {
-double MeanCoveredRadiance(vtkPathTracedVolumeMapper* mapper, int size, double& minimum, int& covered)
+double MeanCoveredRadiance(
+  vtkPathTracedVolumeMapper* mapper, int size, double& minimum, int& covered)
 {
-  auto* radiance = vtkFloatArray::SafeDownCast(mapper->GetEyeOutput(0)->GetPointData()->GetArray("Radiance"));
-  auto* valid = vtkUnsignedCharArray::SafeDownCast(mapper->GetEyeOutput(0)->GetPointData()->GetArray("FirstScatterValid"));
+  auto* radiance =
+    vtkFloatArray::SafeDownCast(mapper->GetEyeOutput(0)->GetPointData()->GetArray("Radiance"));
+  auto* valid = vtkUnsignedCharArray::SafeDownCast(
+    mapper->GetEyeOutput(0)->GetPointData()->GetArray("FirstScatterValid"));
   double sum = 0.0;
   covered = 0;
   minimum = 1e30;
@@ -62,8 +65,8 @@ int TestPathTracedFurnace(int, char*[])
     double minimum;
     int covered;
     const double mean = MeanCoveredRadiance(scene.Mapper, size, minimum, covered);
-    std::cout << "albedo " << albedo << ": mean covered radiance " << mean << " (L = " << L << "), " << covered
-              << " covered pixels, darkest " << minimum << "\n";
+    std::cout << "albedo " << albedo << ": mean covered radiance " << mean << " (L = " << L << "), "
+              << covered << " covered pixels, darkest " << minimum << "\n";
     if (covered < 300)
     {
       std::cerr << "FAILED: too few covered pixels for the furnace test\n";

@@ -8,5 +8,6 @@
 
 int TestPathTracedModelEmissionAbsorption(int argc, char* argv[])
 {
-  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::EMISSION_ABSORPTION, 4, 0);
+  return pathtracingtest::RunModelBaseline(
+    argc, argv, vtkPathTracedVolumeMapper::EMISSION_ABSORPTION, 4, 0);
 }

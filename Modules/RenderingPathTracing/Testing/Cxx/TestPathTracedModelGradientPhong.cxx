@@ -8,5 +8,6 @@
 
 int TestPathTracedModelGradientPhong(int argc, char* argv[])
 {
-  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::GRADIENT_PHONG, 4, 0);
+  return pathtracingtest::RunModelBaseline(
+    argc, argv, vtkPathTracedVolumeMapper::GRADIENT_PHONG, 4, 0);
 }

@@ -8,5 +8,6 @@
 
 int TestPathTracedModelPathTraced(int argc, char* argv[])
 {
-  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::PATH_TRACED, 32, 0);
+  return pathtracingtest::RunModelBaseline(
+    argc, argv, vtkPathTracedVolumeMapper::PATH_TRACED, 32, 0);
 }

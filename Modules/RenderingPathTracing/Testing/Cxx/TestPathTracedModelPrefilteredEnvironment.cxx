@@ -8,5 +8,6 @@
 
 int TestPathTracedModelPrefilteredEnvironment(int argc, char* argv[])
 {
-  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::PREFILTERED_ENVIRONMENT, 4, 0);
+  return pathtracingtest::RunModelBaseline(
+    argc, argv, vtkPathTracedVolumeMapper::PREFILTERED_ENVIRONMENT, 4, 0);
 }

@@ -8,5 +8,6 @@
 
 int TestPathTracedStereoAnaglyph(int argc, char* argv[])
 {
-  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::PATH_TRACED, 32, VTK_STEREO_ANAGLYPH);
+  return pathtracingtest::RunModelBaseline(
+    argc, argv, vtkPathTracedVolumeMapper::PATH_TRACED, 32, VTK_STEREO_ANAGLYPH);
 }

@@ -8,5 +8,6 @@
 
 int TestPathTracedStereoWindow(int argc, char* argv[])
 {
-  return pathtracingtest::RunModelBaseline(argc, argv, vtkPathTracedVolumeMapper::PATH_TRACED, 32, VTK_STEREO_SPLITVIEWPORT_HORIZONTAL);
+  return pathtracingtest::RunModelBaseline(
+    argc, argv, vtkPathTracedVolumeMapper::PATH_TRACED, 32, VTK_STEREO_SPLITVIEWPORT_HORIZONTAL);
 }
