@@ -18,6 +18,32 @@ void VolumeGrid::setScalars(const glm::ivec3& dims, const std::vector<float>& no
   }
   this->GradientOpacityFactor.clear();
   this->GradientMagnitude.clear();
+  // Central differences at the voxels (one-sided at the border), for shading and for the
+  // gradient magnitudes below.
+  this->VoxelGradient.resize(3 * this->Scalars.size());
+  const auto at = [&](int i, int j, int k) {
+    i = std::min(std::max(i, 0), dims.x - 1);
+    j = std::min(std::max(j, 0), dims.y - 1);
+    k = std::min(std::max(k, 0), dims.z - 1);
+    return static_cast<int>(this->Scalars[(static_cast<std::size_t>(k) * dims.y + j) * dims.x + i]);
+  };
+  for (int k = 0; k < dims.z; ++k)
+  {
+    for (int j = 0; j < dims.y; ++j)
+    {
+      for (int i = 0; i < dims.x; ++i)
+      {
+        std::int16_t* g = &this->VoxelGradient[3 * ((static_cast<std::size_t>(k) * dims.y + j) * dims.x + i)];
+        const int difference[3] = { at(i + 1, j, k) - at(i - 1, j, k), at(i, j + 1, k) - at(i, j - 1, k),
+          at(i, j, k + 1) - at(i, j, k - 1) };
+        for (int c = 0; c < 3; ++c)
+        {
+          // Halved (towards zero): |difference| <= 65535 keeps it within int16.
+          g[c] = static_cast<std::int16_t>(difference[c] / 2);
+        }
+      }
+    }
+  }
   this->updateCellRanges();
   this->setIndexToWorld(this->IndexToWorld);
 }
@@ -42,11 +68,9 @@ void VolumeGrid::setIndexToWorld(const glm::mat4& indexToWorld)
     {
       for (int i = 0; i < this->Dims.x; ++i)
       {
-        const glm::vec3 indexGradient(
-          0.5f * (v.voxel(v.scalar, i + 1, j, k) - v.voxel(v.scalar, i - 1, j, k)),
-          0.5f * (v.voxel(v.scalar, i, j + 1, k) - v.voxel(v.scalar, i, j - 1, k)),
-          0.5f * (v.voxel(v.scalar, i, j, k + 1) - v.voxel(v.scalar, i, j, k - 1)));
+        const std::int16_t* g = &this->VoxelGradient[3 * static_cast<std::size_t>(v.voxelIndex(i, j, k))];
         // In quanta; the gradient of the normalised scalar is ScalarQuantum times this.
+        const glm::vec3 indexGradient(g[0], g[1], g[2]);
         const float magnitude = glm::length(v.gradientToWorld * indexGradient) * ScalarQuantum;
         this->GradientMagnitude[v.voxelIndex(i, j, k)] = magnitude;
         maximum = std::max(maximum, magnitude);
@@ -315,6 +339,7 @@ VolumeView VolumeGrid::view() const
   v.scalar = this->Scalars.data();
   v.gradientOpacity =
     this->GradientOpacityFactor.empty() ? nullptr : this->GradientOpacityFactor.data();
+  v.gradient = this->VoxelGradient.empty() ? nullptr : this->VoxelGradient.data();
   v.dims = this->Dims;
   v.indexToWorld = this->IndexToWorld;
   v.worldToIndex = glm::inverse(this->IndexToWorld);

@@ -55,6 +55,9 @@ struct VolumeView
 {
   const std::uint16_t* scalar = nullptr;  // normalised scalar / ScalarQuantum, x fastest
   const float* gradientOpacity = nullptr; // optional per-voxel factor in [0, 1]
+  // Optional per-voxel index-space gradient (x, y, z interleaved): the central difference
+  // (s[i+1] - s[i-1]) / 2 in scalar quanta, which always fits 16 bits.
+  const std::int16_t* gradient = nullptr;
   glm::ivec3 dims = glm::ivec3(0);
   glm::mat4 worldToIndex = glm::mat4(1.0f);
   glm::mat4 indexToWorld = glm::mat4(1.0f);
@@ -164,14 +167,41 @@ struct VolumeView
 
   // World-space gradient of the normalised scalar by central differences of the
   // trilinear field, one voxel apart.
+  // World-space gradient of the normalised scalar. With precomputed voxel gradients (central
+  // differences at the voxels, interpolated trilinearly, as VTK's ray casters shade) one
+  // 8-voxel fetch replaces the six scalar lookups of central differences of the interpolated
+  // field, which the kernels fall back to without them.
   HV_FUNCTION glm::vec3 worldGradient(const glm::vec3& p) const
   {
+    if (this->gradient != nullptr)
+    {
+      const glm::vec3 q = glm::clamp(p, glm::vec3(0.0f), glm::vec3(this->dims - 1));
+      const glm::ivec3 base = glm::min(glm::ivec3(q), glm::max(this->dims - 2, glm::ivec3(0)));
+      const glm::vec3 w = q - glm::vec3(base);
+      const long strideY = this->dims.x;
+      const long strideZ = static_cast<long>(this->dims.x) * this->dims.y;
+      const long dx = this->dims.x > 1 ? 1 : 0;
+      const long dy = this->dims.y > 1 ? strideY : 0;
+      const long dz = this->dims.z > 1 ? strideZ : 0;
+      const long origin = base.z * strideZ + base.y * strideY + base.x;
+      glm::vec3 sum(0.0f);
+      for (int corner = 0; corner < 8; ++corner)
+      {
+        const long offset = ((corner & 1) ? dx : 0) + ((corner & 2) ? dy : 0) + ((corner & 4) ? dz : 0);
+        const float weight = ((corner & 1) ? w.x : 1.0f - w.x) * ((corner & 2) ? w.y : 1.0f - w.y) *
+          ((corner & 4) ? w.z : 1.0f - w.z);
+        const std::int16_t* g = this->gradient + 3 * (origin + offset);
+        sum += weight * glm::vec3(g[0], g[1], g[2]);
+      }
+      return this->gradientToWorld * (sum * ScalarQuantum);
+    }
     const glm::vec3 indexGradient(
       0.5f * (this->scalarAt(p + glm::vec3(1, 0, 0)) - this->scalarAt(p - glm::vec3(1, 0, 0))),
       0.5f * (this->scalarAt(p + glm::vec3(0, 1, 0)) - this->scalarAt(p - glm::vec3(0, 1, 0))),
       0.5f * (this->scalarAt(p + glm::vec3(0, 0, 1)) - this->scalarAt(p - glm::vec3(0, 0, 1))));
     return this->gradientToWorld * indexGradient;
   }
+
 
   HV_FUNCTION int emptyDistanceOfCell(const glm::ivec3& c) const
   {

@@ -53,6 +53,7 @@ private:
 
   glm::ivec3 Dims = glm::ivec3(0);
   std::vector<std::uint16_t> Scalars;
+  std::vector<std::int16_t> VoxelGradient; // 3 per voxel, see VolumeView::gradient
   std::vector<float> GradientMagnitude; // per voxel, world units, normalised scalar
   float MaximumGradient = 1.0f;
   glm::mat4 IndexToWorld = glm::mat4(1.0f);
