@@ -66,10 +66,10 @@ struct FirstScatter
 
 // Local optical state at an index-space point: albedo, unit world normal facing the viewer,
 // normalised gradient magnitude.
-HV_FUNCTION void shadingFrame(const VolumeView& volume, const glm::vec3& p,
+HV_FUNCTION void shadingFrame(const VolumeView& volume, const glm::vec3& p, float scalar,
   const glm::vec3& rayDirection, glm::vec3& albedo, glm::vec3& normal, float& gradientMagnitude)
 {
-  albedo = volume.transfer.albedoAt(volume.scalarAt(p));
+  albedo = volume.transfer.albedoAt(scalar);
   const glm::vec3 gradient = volume.worldGradient(p);
   const float magnitude = glm::length(gradient);
   gradientMagnitude = glm::min(magnitude / volume.maxGradientMagnitude, 1.0f);
@@ -121,10 +121,11 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
   {
     IndexRay ray;
     float tCollision = 0.0f;
+    float scalarAtCollision = 0.0f;
     const float tStart = scatterEvents == 0 ? 0.0f : RayEpsilon;
     const bool collided =
       makeIndexRay(volume, scene.clipping, origin, direction, tStart, tMax, ray) &&
-      sampleFreeFlight(volume, ray, rng, tCollision);
+      sampleFreeFlight(volume, ray, rng, tCollision, scalarAtCollision);
     if (!collided)
     {
       if (scatterEvents == 0)
@@ -153,7 +154,7 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
     const glm::vec3 position = origin + tCollision * direction;
     glm::vec3 albedo, normal;
     float gradientMagnitude;
-    shadingFrame(volume, indexPosition, direction, albedo, normal, gradientMagnitude);
+    shadingFrame(volume, indexPosition, scalarAtCollision, direction, albedo, normal, gradientMagnitude);
     if (scatterEvents == 0)
     {
       covered = true;
@@ -285,7 +286,8 @@ HV_FUNCTION glm::vec4 marchRay(const SceneView& scene, const glm::vec3& origin,
       for (float t = ray.tMin + (k + jitter) * step; t < exit && transmittance > 1e-3f; t += step)
       {
         const glm::vec3 p = ray.origin + t * ray.direction;
-        const float sigma = volume.sigmaT(p);
+        float scalar;
+        const float sigma = volume.sigmaT(p, scalar);
         if (sigma <= 0.0f)
         {
           continue;
@@ -296,11 +298,11 @@ HV_FUNCTION glm::vec4 marchRay(const SceneView& scene, const glm::vec3& origin,
         float gradientMagnitude = 0.0f;
         if (scene.model == EmissionAbsorption && !recordsFirst)
         {
-          albedo = volume.transfer.albedoAt(volume.scalarAt(p)); // no gradient needed
+          albedo = volume.transfer.albedoAt(scalar); // no gradient needed
         }
         else
         {
-          shadingFrame(volume, p, direction, albedo, normal, gradientMagnitude);
+          shadingFrame(volume, p, scalar, direction, albedo, normal, gradientMagnitude);
         }
         glm::vec3 shaded = albedo;
         if (scene.model == GradientPhong)

@@ -218,8 +218,8 @@ struct MajorantIterator
 // first real collision with density sigmaT(t) exp(-int_0^t sigmaT), unbiased for any
 // majorant >= sigmaT (Woodcock et al. 1965; Novak et al. 2018, Sec. 4). Returns false when
 // the ray leaves the medium, which happens with probability equal to the transmittance.
-HV_FUNCTION bool sampleFreeFlight(
-  const VolumeView& volume, const IndexRay& ray, Pcg32& rng, float& tCollision)
+HV_FUNCTION bool sampleFreeFlight(const VolumeView& volume, const IndexRay& ray, Pcg32& rng,
+  float& tCollision, float& scalarAtCollision)
 {
   MajorantIterator it;
   it.begin(volume, ray);
@@ -237,10 +237,12 @@ HV_FUNCTION bool sampleFreeFlight(
         {
           break;
         }
-        const float sigma = volume.sigmaT(ray.origin + t * ray.direction);
+        float scalar;
+        const float sigma = volume.sigmaT(ray.origin + t * ray.direction, scalar);
         if (rng.nextFloat() * majorant < sigma)
         {
           tCollision = t;
+          scalarAtCollision = scalar;
           return true;
         }
       }
@@ -248,6 +250,13 @@ HV_FUNCTION bool sampleFreeFlight(
     it.advance(volume);
   }
   return false;
+}
+
+HV_FUNCTION bool sampleFreeFlight(
+  const VolumeView& volume, const IndexRay& ray, Pcg32& rng, float& tCollision)
+{
+  float scalarUnused;
+  return sampleFreeFlight(volume, ray, rng, tCollision, scalarUnused);
 }
 
 // Ratio tracking (Cramer 1978; Novak et al. 2014): an unbiased transmittance estimate that

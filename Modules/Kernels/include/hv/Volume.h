@@ -153,11 +153,20 @@ struct VolumeView
   // Extinction at an index-space point: sigmaT(s(p)) times the gradient-opacity factor.
   HV_FUNCTION float sigmaT(const glm::vec3& p) const
   {
+    float scalar;
+    return this->sigmaT(p, scalar);
+  }
+
+  // Also returns the normalised scalar at p, which the shading at a collision needs again.
+  HV_FUNCTION float sigmaT(const glm::vec3& p, float& scalar) const
+  {
+    scalar = 0.0f;
     if (this->isCropped(p))
     {
       return 0.0f;
     }
-    float sigma = this->transfer.sigmaT(this->scalarAt(p));
+    scalar = this->scalarAt(p);
+    float sigma = this->transfer.sigmaT(scalar);
     if (this->gradientOpacity != nullptr)
     {
       sigma *= this->trilinear(this->gradientOpacity, p);
