@@ -313,7 +313,8 @@ public:
 
   /**
    * Renders into the renderer's viewport (called by vtkVolume). In a stereo render window
-   * the left-eye pass renders both eyes and the right-eye pass shows the second one.
+   * each pass renders the eye vtkCamera is set up for (any stereo type); both eyes of a frame
+   * share its frame index and their images stay available through GetEyeOutput().
    */
   void Render(vtkRenderer* renderer, vtkVolume* volume) override;
 

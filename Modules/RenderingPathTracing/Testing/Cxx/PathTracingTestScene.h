@@ -153,7 +153,7 @@ inline void PlaceCamera(vtkCamera* camera)
 
 namespace pathtracingtest
 {
-// PSNR (dB), in 4x4 block means, of an RGB image against the baseline named by the test's
+// PSNR (dB), in 8x8 block means, of an RGB image against the baseline named by the test's
 // -V argument. VTK's image comparison ignores per-pixel differences below a large
 // threshold, which lets a different shading model with the same silhouette pass; this
 // check does not.
@@ -174,11 +174,11 @@ inline double BaselinePSNR(int argc, char* argv[], vtkImageData* image)
   {
     return -1.0;
   }
-  // Compare 4x4 block means: Monte-Carlo noise (which moves whenever the random numbers
+  // Compare 8x8 block means: Monte-Carlo noise (which moves whenever the random numbers
   // are consumed differently) averages out, shading and geometry do not.
   int dims[3];
   image->GetDimensions(dims);
-  const int block = 4;
+  const int block = 8;
   double squared = 0.0;
   int count = 0;
   for (int by = 0; by + block <= dims[1]; by += block)
@@ -282,14 +282,15 @@ inline int RunModelBaseline(int argc, char* argv[], int model, int samplesPerPix
     interactor->Start();
   }
   // The renders are seeded, so the same build reproduces the baseline exactly (99 dB). When
-  // the random numbers are consumed differently (another compiler's rounding, a new majorant
-  // grid) the noise moves: at 16 spp that measured 40.5 dB in block means. Another
-  // illumination model on the same scene measured 22-34 dB, so 37 dB separates the two.
+  // the random numbers are consumed differently (another libm, another compiler's rounding)
+  // the noise moves: with a different seed these scenes measured 44.4-46.6 dB in 8x8 block
+  // means. Another illumination model on the same scene measured 22.4-34.8 dB. 40 dB sits
+  // between the two with 4 dB or more on either side.
   const double psnr = BaselinePSNR(argc, argv, capture->GetOutput());
   std::cout << "PSNR of the first frame against the baseline: " << psnr << " dB\n";
-  if (psnr >= 0.0 && psnr < 37.0)
+  if (psnr >= 0.0 && psnr < 40.0)
   {
-    std::cerr << "The image differs from the baseline: PSNR " << psnr << " dB < 37 dB\n";
+    std::cerr << "The image differs from the baseline: PSNR " << psnr << " dB < 40 dB\n";
     return EXIT_FAILURE;
   }
   return result == vtkRegressionTester::PASSED ? EXIT_SUCCESS : EXIT_FAILURE;
