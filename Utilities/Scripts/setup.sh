@@ -34,7 +34,8 @@ holovolume_install_dependencies() {
     sudo="sudo"
   fi
   $sudo apt-get update -q
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -q --no-install-recommends "${missing[@]}"
+  # With recommends, as VTK's CMake package was verified with them.
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -q "${missing[@]}"
 }
 
 holovolume_build() {
