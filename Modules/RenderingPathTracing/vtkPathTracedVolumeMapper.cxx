@@ -126,7 +126,6 @@ public:
     vtkMTimeType SceneKey = 0;
     RenderSettings Settings{};
     vtkNew<vtkImageData> Output;
-    vtkTypeUInt32 RenderedFrame = 0;
     bool Valid = false;
   };
 
@@ -267,7 +266,6 @@ namespace
 bool ReportInputProblem(
   vtkPathTracedVolumeMapper* self, vtkImageData* input, vtkDataArray*& scalars)
 {
-  (void)self;
   scalars = nullptr;
   if (!input)
   {
@@ -824,7 +822,6 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
     state.Projection = view.projection;
     state.SceneKey = internals->SceneKey;
     state.Settings = settings;
-    state.RenderedFrame = frameIndex;
     state.Valid = true;
 
     output->GetFieldData()->Initialize();
