@@ -109,6 +109,7 @@ struct MajorantIterator
   glm::vec3 tDelta;
   glm::vec3 origin;
   glm::vec3 direction;
+  glm::vec3 inverseDirection;
   float t;
   float tEnd;
 
@@ -117,9 +118,19 @@ struct MajorantIterator
     this->origin = ray.origin;
     this->direction = ray.direction;
     this->tEnd = ray.tMax;
+    const float cellSize = static_cast<float>(volume.cellSize);
+    for (int axis = 0; axis < 3; ++axis)
+    {
+      const float d = ray.direction[axis];
+      this->step[axis] = d > 0.0f ? 1 : (d < 0.0f ? -1 : 0);
+      this->inverseDirection[axis] = d != 0.0f ? 1.0f / d : 0.0f;
+      this->tDelta[axis] = d != 0.0f ? cellSize * glm::abs(this->inverseDirection[axis]) : Infinity;
+    }
     this->startAt(volume, ray.tMin);
   }
 
+  // Places the iterator at parameter tStart: the cell there and the parameters of the next
+  // cell boundary along each axis, measured from the ray origin so leaps add no drift.
   HV_FUNCTION void startAt(const VolumeView& volume, float tStart)
   {
     this->t = tStart;
@@ -127,26 +138,16 @@ struct MajorantIterator
     const glm::vec3 p = this->origin + tStart * this->direction;
     for (int axis = 0; axis < 3; ++axis)
     {
-      int c = static_cast<int>(glm::floor(p[axis] / cellSize));
-      c = glm::clamp(c, 0, volume.majorantDims[axis] - 1);
+      const int c =
+        glm::clamp(static_cast<int>(glm::floor(p[axis] / cellSize)), 0, volume.majorantDims[axis] - 1);
       this->cell[axis] = c;
-      const float d = this->direction[axis];
-      if (d > 0.0f)
+      if (this->step[axis] != 0)
       {
-        this->step[axis] = 1;
-        this->tDelta[axis] = cellSize / d;
-        this->tNext[axis] = tStart + ((c + 1) * cellSize - p[axis]) / d;
-      }
-      else if (d < 0.0f)
-      {
-        this->step[axis] = -1;
-        this->tDelta[axis] = -cellSize / d;
-        this->tNext[axis] = tStart + (c * cellSize - p[axis]) / d;
+        const float boundary = (this->step[axis] > 0 ? c + 1 : c) * cellSize;
+        this->tNext[axis] = glm::max((boundary - this->origin[axis]) * this->inverseDirection[axis], tStart);
       }
       else
       {
-        this->step[axis] = 0;
-        this->tDelta[axis] = Infinity;
         this->tNext[axis] = Infinity;
       }
     }
@@ -179,7 +180,7 @@ struct MajorantIterator
         {
           const int face =
             this->step[axis] > 0 ? this->cell[axis] + distance : this->cell[axis] - distance + 1;
-          leap = glm::min(leap, (face * cellSize - this->origin[axis]) / this->direction[axis]);
+          leap = glm::min(leap, (face * cellSize - this->origin[axis]) * this->inverseDirection[axis]);
         }
       }
       // Past the cube face by a hair, so rounding cannot put the ray back inside.
