@@ -5,8 +5,10 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 holovolume_install_dependencies
-if [ ! -x "$HOLOVOLUME_BUILD_DIR/bin/holovolume" ]; then
-  mkdir -p "$HOLOVOLUME_BUILD_DIR"
+if [ -f "$HOLOVOLUME_BUILD_DIR/build.ninja" ]; then
+  # Already configured: bring the build up to date (a no-op when nothing changed).
+  cmake --build "$HOLOVOLUME_BUILD_DIR" --parallel "$(nproc)" >/dev/null
+else
   holovolume_build
 fi
 exec "$HOLOVOLUME_BUILD_DIR/bin/holovolume" "$@"
