@@ -7,7 +7,8 @@ source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 holovolume_install_dependencies
 if [ -f "$HOLOVOLUME_BUILD_DIR/build.ninja" ]; then
   # Already configured: bring the build up to date (a no-op when nothing changed).
-  cmake --build "$HOLOVOLUME_BUILD_DIR" --parallel "$(nproc)" >/dev/null
+  cmake --build "$HOLOVOLUME_BUILD_DIR" --parallel "$(nproc)" >"$HOLOVOLUME_BUILD_DIR/build.log" 2>&1 ||
+    { cat "$HOLOVOLUME_BUILD_DIR/build.log"; exit 1; }
 else
   holovolume_build
 fi
