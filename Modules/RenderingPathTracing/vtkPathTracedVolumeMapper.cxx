@@ -135,7 +135,6 @@ public:
   vtkMTimeType ScalarsTime = 0;
   double ScalarRange[2] = { 0.0, 1.0 };
   int Extent[6] = { 0, -1, 0, -1, 0, -1 };
-  glm::mat4 IndexToWorld = glm::mat4(0.0f);
   vtkMTimeType TransferTime = 0;
   double TransferDensityScale = -1.0;
   int TransferCellSize = 0;
@@ -381,17 +380,15 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
     vtkMatrix4x4::Multiply4x4(volume->GetMatrix(), indexToPhysical, indexToWorld);
   }
   const glm::mat4 indexToWorldGlm = ToGlm(indexToWorld);
-  const bool linearChanged = glm::mat3(indexToWorldGlm) != glm::mat3(internals->IndexToWorld);
-  internals->Grid.setIndexToWorld(indexToWorldGlm);
-  internals->IndexToWorld = indexToWorldGlm;
+  const bool gradientsChanged = internals->Grid.setIndexToWorld(indexToWorldGlm);
 
   // 3. Classification: the transfer functions as tables over the scalar range.
   const bool gradientOpacity =
     property->HasGradientOpacity(0) && !property->GetDisableGradientOpacity(0);
   if (internals->TransferTime != property->GetMTime() ||
     internals->TransferDensityScale != self->GetDensityScale() ||
-    internals->TransferCellSize != self->GetMacrocellSize() || (gradientOpacity && linearChanged) ||
-    gradientOpacity != internals->TransferGradientOpacity)
+    internals->TransferCellSize != self->GetMacrocellSize() ||
+    (gradientOpacity && gradientsChanged) || gradientOpacity != internals->TransferGradientOpacity)
   {
     const double* range = internals->ScalarRange;
     std::vector<float> opacity(TransferFunctionTableSize);

@@ -674,3 +674,30 @@ TEST(Majorant, BoundsExtinctionAfterDisablingGradientOpacity)
   }
   EXPECT_EQ(violations, 0) << "largest excess of sigmaT over the majorant: " << worst;
 }
+
+// Moving or turning the volume keeps the world gradient magnitudes (no per-voxel recompute,
+// which would stall every frame of a hand-held hologram); scaling changes them by the scale.
+TEST(VolumeGrid, GradientMagnitudesFollowScaleButNotRotation)
+{
+  hv::VolumeGrid grid;
+  const glm::ivec3 dims(12, 10, 8);
+  std::vector<float> ramp(static_cast<std::size_t>(dims.x) * dims.y * dims.z);
+  for (int k = 0; k < dims.z; ++k)
+  {
+    for (int j = 0; j < dims.y; ++j)
+    {
+      for (int i = 0; i < dims.x; ++i)
+      {
+        ramp[(static_cast<std::size_t>(k) * dims.y + j) * dims.x + i] = 0.05f * i + 0.02f * j;
+      }
+    }
+  }
+  grid.setScalars(dims, ramp);
+  const float original = grid.maximumGradientMagnitude();
+  const glm::mat4 rotated = glm::translate(glm::mat4(1.0f), glm::vec3(3, -2, 7)) *
+    glm::rotate(glm::mat4(1.0f), 0.7f, glm::normalize(glm::vec3(1, 2, 3)));
+  EXPECT_FALSE(grid.setIndexToWorld(rotated));
+  EXPECT_FLOAT_EQ(grid.maximumGradientMagnitude(), original);
+  EXPECT_TRUE(grid.setIndexToWorld(glm::scale(rotated, glm::vec3(2.0f))));
+  EXPECT_NEAR(grid.maximumGradientMagnitude(), 0.5f * original, 1e-4f * original);
+}

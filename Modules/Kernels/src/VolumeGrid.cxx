@@ -21,7 +21,8 @@ void VolumeGrid::setScalars(const glm::ivec3& dims, const std::vector<float>& no
   // Central differences at the voxels (one-sided at the border), for shading and for the
   // gradient magnitudes below.
   this->VoxelGradient.resize(3 * this->Scalars.size());
-  const auto at = [&](int i, int j, int k) {
+  const auto at = [&](int i, int j, int k)
+  {
     i = std::min(std::max(i, 0), dims.x - 1);
     j = std::min(std::max(j, 0), dims.y - 1);
     k = std::min(std::max(k, 0), dims.z - 1);
@@ -33,9 +34,10 @@ void VolumeGrid::setScalars(const glm::ivec3& dims, const std::vector<float>& no
     {
       for (int i = 0; i < dims.x; ++i)
       {
-        std::int16_t* g = &this->VoxelGradient[3 * ((static_cast<std::size_t>(k) * dims.y + j) * dims.x + i)];
-        const int difference[3] = { at(i + 1, j, k) - at(i - 1, j, k), at(i, j + 1, k) - at(i, j - 1, k),
-          at(i, j, k + 1) - at(i, j, k - 1) };
+        std::int16_t* g =
+          &this->VoxelGradient[3 * ((static_cast<std::size_t>(k) * dims.y + j) * dims.x + i)];
+        const int difference[3] = { at(i + 1, j, k) - at(i - 1, j, k),
+          at(i, j + 1, k) - at(i, j - 1, k), at(i, j, k + 1) - at(i, j, k - 1) };
         for (int c = 0; c < 3; ++c)
         {
           // Halved (towards zero): |difference| <= 65535 keeps it within int16.
@@ -48,13 +50,39 @@ void VolumeGrid::setScalars(const glm::ivec3& dims, const std::vector<float>& no
   this->setIndexToWorld(this->IndexToWorld);
 }
 
-void VolumeGrid::setIndexToWorld(const glm::mat4& indexToWorld)
+namespace
 {
-  const bool linearPartChanged = glm::mat3(indexToWorld) != glm::mat3(this->IndexToWorld);
-  this->IndexToWorld = indexToWorld;
-  if (this->Scalars.empty() || (!linearPartChanged && !this->GradientMagnitude.empty()))
+// World gradient magnitudes are |J^T g| with J the linear part of world-to-index, so they
+// depend on J J^T alone: translations and rotations of the volume leave them unchanged.
+glm::mat3 GradientMetric(const glm::mat4& indexToWorld)
+{
+  const glm::mat3 worldToIndex = glm::inverse(glm::mat3(indexToWorld));
+  return worldToIndex * glm::transpose(worldToIndex);
+}
+
+bool NearlyEqual(const glm::mat3& a, const glm::mat3& b)
+{
+  float scale = 0.0f, difference = 0.0f;
+  for (int c = 0; c < 3; ++c)
   {
-    return; // a translation leaves every gradient unchanged
+    for (int r = 0; r < 3; ++r)
+    {
+      scale = std::max(scale, std::abs(a[c][r]));
+      difference = std::max(difference, std::abs(a[c][r] - b[c][r]));
+    }
+  }
+  return difference <= 1e-5f * scale;
+}
+}
+
+bool VolumeGrid::setIndexToWorld(const glm::mat4& indexToWorld)
+{
+  const bool metricChanged =
+    !NearlyEqual(GradientMetric(indexToWorld), GradientMetric(this->IndexToWorld));
+  this->IndexToWorld = indexToWorld;
+  if (this->Scalars.empty() || (!metricChanged && !this->GradientMagnitude.empty()))
+  {
+    return false; // moving or turning the volume leaves every gradient magnitude unchanged
   }
   // Per-voxel world gradient magnitudes; their maximum normalises the magnitude used by the
   // hybrid scattering model, so it must follow spacing and the prop's scale.
@@ -68,7 +96,8 @@ void VolumeGrid::setIndexToWorld(const glm::mat4& indexToWorld)
     {
       for (int i = 0; i < this->Dims.x; ++i)
       {
-        const std::int16_t* g = &this->VoxelGradient[3 * static_cast<std::size_t>(v.voxelIndex(i, j, k))];
+        const std::int16_t* g =
+          &this->VoxelGradient[3 * static_cast<std::size_t>(v.voxelIndex(i, j, k))];
         // In quanta; the gradient of the normalised scalar is ScalarQuantum times this.
         const glm::vec3 indexGradient(g[0], g[1], g[2]);
         const float magnitude = glm::length(v.gradientToWorld * indexGradient) * ScalarQuantum;
@@ -78,6 +107,7 @@ void VolumeGrid::setIndexToWorld(const glm::mat4& indexToWorld)
     }
   }
   this->MaximumGradient = maximum > 0.0f ? maximum : 1.0f;
+  return true;
 }
 
 void VolumeGrid::setTransferFunction(const std::vector<float>& opacity,

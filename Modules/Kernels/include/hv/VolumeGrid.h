@@ -21,8 +21,10 @@ public:
   void setScalars(const glm::ivec3& dims, const std::vector<float>& normalizedScalars);
 
   // Affine map from continuous voxel indices to world coordinates (origin, spacing,
-  // direction and the prop's matrix combined).
-  void setIndexToWorld(const glm::mat4& indexToWorld);
+  // direction and the prop's matrix combined). Returns true when the world gradient
+  // magnitudes changed (scale or shear; not translation or rotation), which invalidates
+  // gradient-opacity factors.
+  bool setIndexToWorld(const glm::mat4& indexToWorld);
 
   // Tabulated optical model over the normalised scalar: VTK opacity per unit distance and
   // RGB albedo. Opacity alpha over distance d_u becomes extinction
@@ -54,7 +56,7 @@ private:
   glm::ivec3 Dims = glm::ivec3(0);
   std::vector<std::uint16_t> Scalars;
   std::vector<std::int16_t> VoxelGradient; // 3 per voxel, see VolumeView::gradient
-  std::vector<float> GradientMagnitude; // per voxel, world units, normalised scalar
+  std::vector<float> GradientMagnitude;    // per voxel, world units, normalised scalar
   float MaximumGradient = 1.0f;
   glm::mat4 IndexToWorld = glm::mat4(1.0f);
   std::vector<float> Extinction;
