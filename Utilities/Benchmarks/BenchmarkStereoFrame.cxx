@@ -37,11 +37,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <functional>
 #include <iostream>
 #include <numeric>
 #include <sstream>
 #include <string>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <thread>
 #include <vector>
@@ -216,6 +216,15 @@ double Mean(const std::vector<double>& values)
   return std::accumulate(values.begin(), values.end(), 0.0) / values.size();
 }
 
+// User plus system CPU time of the whole process (all threads, llvmpipe's included).
+double ProcessCPUSeconds()
+{
+  struct rusage usage;
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_utime.tv_sec + usage.ru_stime.tv_sec +
+    1e-6 * (usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
+
 double MillisecondsSince(std::chrono::steady_clock::time_point start)
 {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
@@ -281,6 +290,7 @@ struct Result
   std::string Note;          // why a row was skipped, or a caveat
   double FirstFrameMs = 0.0; // the one-off first stereo frame
   std::vector<double> FrameMs;
+  double CPUSeconds = 0.0;   // process CPU time over the timed frames
   double WorkPerFrame = 0.0; // samples (path tracer) or rays (ray casters) per stereo frame
   const char* WorkUnit = "";
   Mask Masks[2];
@@ -368,6 +378,7 @@ Result TimePathTracer(vtkPathTracedVolumeMapper* mapper, vtkVolume* volume,
   result.FirstFrameMs = MillisecondsSince(start);
   std::cerr << " " << static_cast<int>(result.FirstFrameMs) << " ms; timing " << options.Frames
             << " frames..." << std::flush;
+  const double cpuStart = ProcessCPUSeconds();
   for (int frame = 0; frame < options.Frames; ++frame)
   {
     start = std::chrono::steady_clock::now();
@@ -379,6 +390,7 @@ Result TimePathTracer(vtkPathTracedVolumeMapper* mapper, vtkVolume* volume,
     }
     result.FrameMs.push_back(MillisecondsSince(start));
   }
+  result.CPUSeconds = ProcessCPUSeconds() - cpuStart;
   std::cerr << " done\n";
   result.Ran = true;
 
@@ -486,12 +498,14 @@ Result TimeWindowMapper(const std::string& label, const std::string& fileTag,
   std::cerr << " " << static_cast<int>(result.FirstFrameMs) << " ms; timing " << options.Frames
             << " frames..." << std::flush;
   rayCasts = 0;
+  const double cpuStart = ProcessCPUSeconds();
   for (int frame = 0; frame < options.Frames; ++frame)
   {
     start = std::chrono::steady_clock::now();
     renderStereoFrame();
     result.FrameMs.push_back(MillisecondsSince(start));
   }
+  result.CPUSeconds = ProcessCPUSeconds() - cpuStart;
   std::cerr << " done\n";
   if (!error.empty())
   {
@@ -742,7 +756,7 @@ int main(int argc, char* argv[])
   std::printf(
     "timed frames per mapper: %d after the first; wall-clock, std::chrono::steady_clock\n\n",
     options.Frames);
-  std::printf("%-46s %12s %24s %10s %20s\n", "mapper", "first frame", "median ms/stereo frame",
+  std::printf("%-51s %12s %24s %10s %20s\n", "mapper", "first frame", "median ms/stereo frame",
     "mean", "rays or samples/s");
   const Result* pathTraced = nullptr;
   const Result* fixedPoint = nullptr;
@@ -750,7 +764,7 @@ int main(int argc, char* argv[])
   {
     if (!result.Ran)
     {
-      std::printf("%-46s %s\n", result.Mapper.c_str(), result.Note.c_str());
+      std::printf("%-51s %s\n", result.Mapper.c_str(), result.Note.c_str());
       continue;
     }
     const double median = Median(result.FrameMs);
@@ -759,11 +773,11 @@ int main(int argc, char* argv[])
       rate, sizeof(rate), "%.3g %s", result.WorkPerFrame / (median / 1000.0), result.WorkUnit);
     char first[32];
     std::snprintf(first, sizeof(first), "%.0f ms", result.FirstFrameMs);
-    std::printf("%-46s %12s %24.1f %10.1f %20s\n", result.Mapper.c_str(), first, median,
+    std::printf("%-51s %12s %24.1f %10.1f %20s\n", result.Mapper.c_str(), first, median,
       Mean(result.FrameMs), rate);
     if (!result.Note.empty())
     {
-      std::printf("%-46s (%s)\n", "", result.Note.c_str());
+      std::printf("%-51s (%s)\n", "", result.Note.c_str());
     }
     // The path-traced row when timed, otherwise the first HoloVolume model's.
     if (!result.Model.empty() && (!pathTraced || result.Model == "path-traced"))
@@ -786,6 +800,31 @@ int main(int argc, char* argv[])
     std::printf("ratio path-traced / fixed-point: not available (fixed-point row missing)\n");
   }
 
+  // Wall-clock times are only comparable if every mapper had the cores to itself: show how busy
+  // the process kept them, so a run disturbed by other load can be recognised and repeated.
+  std::printf("\nCPU use over the timed frames (process CPU time / wall time / %d thread%s):\n",
+    threads, threads == 1 ? "" : "s");
+  bool disturbed = false;
+  for (const Result& result : results)
+  {
+    if (!result.Ran)
+    {
+      continue;
+    }
+    const double wallSeconds =
+      std::accumulate(result.FrameMs.begin(), result.FrameMs.end(), 0.0) / 1000.0;
+    const double use = result.CPUSeconds / (wallSeconds * threads);
+    std::printf("  %-51s %5.0f%%\n", result.Mapper.c_str(), 100.0 * use);
+    // The path tracer is parallel throughout, so low use there means competing processes.
+    disturbed = disturbed || (!result.Model.empty() && use < 0.8);
+  }
+  if (disturbed)
+  {
+    std::printf(
+      "  note: the path tracer used under 80%% of its threads; other processes probably competed "
+      "for the cores, so rerun on a quiet machine\n");
+  }
+
   // The views check: every mapper's silhouettes against the first HoloVolume row's.
   if (!results.empty() && results.front().Ran)
   {
@@ -798,7 +837,7 @@ int main(int argc, char* argv[])
       {
         continue;
       }
-      std::printf("  %-44s %5.1f%% / %5.1f%%   IoU %.3f / %.3f\n", result.Mapper.c_str(),
+      std::printf("  %-51s %5.1f%% / %5.1f%%   IoU %.3f / %.3f\n", result.Mapper.c_str(),
         100.0 * CoveredFraction(result.Masks[0]), 100.0 * CoveredFraction(result.Masks[1]),
         SilhouetteAgreement(reference.Masks[0], result.Masks[0]),
         SilhouetteAgreement(reference.Masks[1], result.Masks[1]));
