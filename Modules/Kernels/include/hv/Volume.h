@@ -105,21 +105,31 @@ struct VolumeView
     return static_cast<float>(field[this->voxelIndex(i, j, k)]);
   }
 
+  // The voxel cell that trilinear interpolation at p reads: the index of its lower corner,
+  // the weights, and the index offsets to the next voxel along x, y, z (one base index and
+  // three strides instead of eight index computations; an offset is zero along an axis with
+  // a single sample).
+  HV_FUNCTION long interpolationCell(
+    const glm::vec3& p, glm::vec3& w, long& dx, long& dy, long& dz) const
+  {
+    const glm::vec3 q = glm::clamp(p, glm::vec3(0.0f), glm::vec3(this->dims - 1));
+    const glm::ivec3 base = glm::min(glm::ivec3(q), glm::max(this->dims - 2, glm::ivec3(0)));
+    w = q - glm::vec3(base);
+    const long strideY = this->dims.x;
+    const long strideZ = static_cast<long>(this->dims.x) * this->dims.y;
+    dx = this->dims.x > 1 ? 1 : 0;
+    dy = this->dims.y > 1 ? strideY : 0;
+    dz = this->dims.z > 1 ? strideZ : 0;
+    return base.z * strideZ + base.y * strideY + base.x;
+  }
+
   // Trilinear interpolation of a voxel field (float, or the 16-bit scalars in quanta).
   template <typename T>
   HV_FUNCTION float trilinear(const T* field, const glm::vec3& p) const
   {
-    const glm::vec3 q = glm::clamp(p, glm::vec3(0.0f), glm::vec3(this->dims - 1));
-    const glm::ivec3 base = glm::min(glm::ivec3(q), glm::max(this->dims - 2, glm::ivec3(0)));
-    const glm::vec3 w = q - glm::vec3(base);
-    // One base index and three strides instead of eight index computations; a stride is
-    // zero along an axis with a single sample.
-    const long strideY = this->dims.x;
-    const long strideZ = static_cast<long>(this->dims.x) * this->dims.y;
-    const long dx = this->dims.x > 1 ? 1 : 0;
-    const long dy = this->dims.y > 1 ? strideY : 0;
-    const long dz = this->dims.z > 1 ? strideZ : 0;
-    const T* c = field + (base.z * strideZ + base.y * strideY + base.x);
+    glm::vec3 w;
+    long dx, dy, dz;
+    const T* c = field + this->interpolationCell(p, w, dx, dy, dz);
     const float v000 = static_cast<float>(c[0]), v100 = static_cast<float>(c[dx]);
     const float v010 = static_cast<float>(c[dy]), v110 = static_cast<float>(c[dy + dx]);
     const float v001 = static_cast<float>(c[dz]), v101 = static_cast<float>(c[dz + dx]);
@@ -184,19 +194,14 @@ struct VolumeView
   {
     if (this->gradient != nullptr)
     {
-      const glm::vec3 q = glm::clamp(p, glm::vec3(0.0f), glm::vec3(this->dims - 1));
-      const glm::ivec3 base = glm::min(glm::ivec3(q), glm::max(this->dims - 2, glm::ivec3(0)));
-      const glm::vec3 w = q - glm::vec3(base);
-      const long strideY = this->dims.x;
-      const long strideZ = static_cast<long>(this->dims.x) * this->dims.y;
-      const long dx = this->dims.x > 1 ? 1 : 0;
-      const long dy = this->dims.y > 1 ? strideY : 0;
-      const long dz = this->dims.z > 1 ? strideZ : 0;
-      const long origin = base.z * strideZ + base.y * strideY + base.x;
+      glm::vec3 w;
+      long dx, dy, dz;
+      const long origin = this->interpolationCell(p, w, dx, dy, dz);
       glm::vec3 sum(0.0f);
       for (int corner = 0; corner < 8; ++corner)
       {
-        const long offset = ((corner & 1) ? dx : 0) + ((corner & 2) ? dy : 0) + ((corner & 4) ? dz : 0);
+        const long offset =
+          ((corner & 1) ? dx : 0) + ((corner & 2) ? dy : 0) + ((corner & 4) ? dz : 0);
         const float weight = ((corner & 1) ? w.x : 1.0f - w.x) * ((corner & 2) ? w.y : 1.0f - w.y) *
           ((corner & 4) ? w.z : 1.0f - w.z);
         const std::int16_t* g = this->gradient + 3 * (origin + offset);
@@ -210,7 +215,6 @@ struct VolumeView
       0.5f * (this->scalarAt(p + glm::vec3(0, 0, 1)) - this->scalarAt(p - glm::vec3(0, 0, 1))));
     return this->gradientToWorld * indexGradient;
   }
-
 
   HV_FUNCTION int emptyDistanceOfCell(const glm::ivec3& c) const
   {
