@@ -1,9 +1,11 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Copyright (c) 2026 the HoloVolume developers.
 //
-// Instantiates the per-pixel path-tracing kernel as CUDA device code. It proves that the
-// kernels stay device-compilable (no virtuals, exceptions or STL inside); the CUDA backend
-// that launches it comes later.
+// Instantiates the per-pixel path-tracing kernel (and the fisheye lens model of the stitcher)
+// as CUDA device code. It proves that the kernels stay device-compilable (no virtuals,
+// exceptions or STL inside); the CUDA backend that launches it comes later.
+#include "hv/Equirectangular.h"
+#include "hv/FisheyeLens.h"
 #include "hv/Render.h"
 
 namespace hv
@@ -19,5 +21,26 @@ __global__ void renderEyeKernel(SceneView scene, EyeView eye, unsigned int eyeIn
   }
   pixels[y * eye.width + x] =
     renderPixel(scene, eye, x, y, eyeIndex, frameIndex, seed, samplesPerPixel);
+}
+
+// The dual-fisheye lens model (hv/FisheyeLens.h): the remap position of each panorama pixel
+// in one lens, and the direction back from it, as a GPU stitcher would compute them.
+__global__ void fisheyeRemapKernel(
+  FisheyeLens lens, int width, int height, glm::vec2* positions, glm::vec3* directions)
+{
+  const int x = blockIdx.x * blockDim.x + threadIdx.x;
+  const int y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x >= width || y >= height)
+  {
+    return;
+  }
+  const glm::vec3 direction =
+    equirectangularToDirection(glm::vec2((x + 0.5f) / width, (y + 0.5f) / height));
+  glm::vec2 pixel;
+  const bool inside = fisheyeProjectCamera(lens, direction, pixel);
+  glm::vec3 back;
+  fisheyeUnproject(lens, pixel, back);
+  positions[y * width + x] = inside ? pixel : glm::vec2(-1.0f);
+  directions[y * width + x] = back;
 }
 }
