@@ -126,8 +126,8 @@ TEST(PanoramaAlignment, HeadsetRotationTurnsTheLightIntoWorldDirection)
   alignment.apply(cameraPanorama, aligned);
   const glm::vec3 expected = glm::mat3(worldFromHeadset * headsetFromCamera) * lightInCamera;
   EXPECT_LT(angleDegrees(centroidDirection(aligned), expected), 0.5f);
-  EXPECT_LT(angleDegrees(alignment.volumeDirectionFromCameraDirection(lightInCamera), expected),
-    1e-3f);
+  EXPECT_LT(
+    angleDegrees(alignment.volumeDirectionFromCameraDirection(lightInCamera), expected), 1e-3f);
 }
 
 TEST(PanoramaAlignment, SphereWarpRecentresLampOnVolume)

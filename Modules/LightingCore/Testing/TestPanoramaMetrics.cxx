@@ -13,8 +13,8 @@
 
 namespace
 {
-cv::Mat diskPanorama(int width, const glm::vec3& direction, float radiusDegrees, float inside,
-  float outside)
+cv::Mat diskPanorama(
+  int width, const glm::vec3& direction, float radiusDegrees, float inside, float outside)
 {
   cv::Mat panorama(width / 2, width, CV_32FC3);
   const float cosRadius = std::cos(glm::radians(radiusDegrees));
@@ -36,7 +36,8 @@ TEST(PanoramaMetrics, UniformRadianceGivesIrradiancePiL)
 {
   const cv::Mat uniform(128, 256, CV_32FC3, cv::Scalar::all(2.0));
   const auto sh = hv::lighting::projectOnSphericalHarmonics(uniform);
-  for (const glm::vec3& n : { glm::vec3(0, 1, 0), glm::vec3(1, 0, 0), glm::normalize(glm::vec3(1, -1, 2)) })
+  for (const glm::vec3& n :
+    { glm::vec3(0, 1, 0), glm::vec3(1, 0, 0), glm::normalize(glm::vec3(1, -1, 2)) })
   {
     EXPECT_NEAR(hv::irradianceFromSH(sh.data(), n).y, 2.0f * hv::Pi, 0.01f * 2.0f * hv::Pi);
   }
@@ -98,8 +99,9 @@ TEST(PanoramaMetrics, DominantLightOfADisk)
 TEST(PanoramaMetrics, BadInputIsRejected)
 {
   const cv::Mat a(64, 128, CV_32FC3, cv::Scalar::all(1.0));
-  EXPECT_THROW(hv::lighting::weightedPsnr(a, cv::Mat(64, 100, CV_32FC3), 1.0), std::invalid_argument);
-  EXPECT_THROW(hv::lighting::projectOnSphericalHarmonics(cv::Mat(64, 128, CV_32FC1)),
-    std::invalid_argument);
+  EXPECT_THROW(
+    hv::lighting::weightedPsnr(a, cv::Mat(64, 100, CV_32FC3), 1.0), std::invalid_argument);
+  EXPECT_THROW(
+    hv::lighting::projectOnSphericalHarmonics(cv::Mat(64, 128, CV_32FC1)), std::invalid_argument);
   EXPECT_THROW(hv::lighting::weightedSsim(a, a, 1.0, cv::Mat(3, 3, CV_8U)), std::invalid_argument);
 }

@@ -95,9 +95,9 @@ glm::vec3 PanoramaAlignment::proxyPoint(const glm::vec3& w) const
     // |c + t w - p| = R with c inside the sphere: the positive root.
     const glm::vec3 o = c - this->CameraPosition;
     const float b = glm::dot(o, w);
-    const float t = -b + std::sqrt(std::max(b * b - (glm::dot(o, o) - this->EffectiveRadius *
-                                                        this->EffectiveRadius),
-                           0.0f));
+    const float t = -b +
+      std::sqrt(
+        std::max(b * b - (glm::dot(o, o) - this->EffectiveRadius * this->EffectiveRadius), 0.0f));
     return c + t * w;
   }
   float t = Infinity;
@@ -121,8 +121,8 @@ void PanoramaAlignment::buildDirectionTable()
   {
     for (int i = 0; i < this->Width; ++i)
     {
-      const glm::vec3 w = equirectangularToDirection(
-        glm::vec2((i + 0.5f) / this->Width, (j + 0.5f) / this->Height));
+      const glm::vec3 w =
+        equirectangularToDirection(glm::vec2((i + 0.5f) / this->Width, (j + 0.5f) / this->Height));
       const size_t k = static_cast<size_t>(j) * this->Width + i;
       this->DirectionX[k] = w.x;
       this->DirectionY[k] = w.y;
@@ -283,7 +283,8 @@ void PanoramaAlignment::apply(const cv::Mat& cameraPanorama, cv::Mat& worldPanor
     cv::BORDER_WRAP);
 }
 
-glm::vec3 PanoramaAlignment::cameraDirectionFromVolumeDirection(const glm::vec3& worldDirection) const
+glm::vec3 PanoramaAlignment::cameraDirectionFromVolumeDirection(
+  const glm::vec3& worldDirection) const
 {
   const glm::vec3 w = glm::normalize(worldDirection);
   return glm::normalize(this->CameraFromWorld * (this->proxyPoint(w) - this->CameraPosition));

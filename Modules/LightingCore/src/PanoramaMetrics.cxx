@@ -72,7 +72,8 @@ cv::Mat sphericalWeights(cv::Size size, const cv::Mat& mask)
   return weights;
 }
 
-double weightedPsnr(const cv::Mat& image, const cv::Mat& reference, double peak, const cv::Mat& mask)
+double weightedPsnr(
+  const cv::Mat& image, const cv::Mat& reference, double peak, const cv::Mat& mask)
 {
   requireSameShape(image, reference);
   cv::Mat a, b;
@@ -87,7 +88,8 @@ double weightedPsnr(const cv::Mat& image, const cv::Mat& reference, double peak,
                     : 10.0 * std::log10(peak * peak / mse);
 }
 
-double weightedSsim(const cv::Mat& image, const cv::Mat& reference, double peak, const cv::Mat& mask)
+double weightedSsim(
+  const cv::Mat& image, const cv::Mat& reference, double peak, const cv::Mat& mask)
 {
   requireSameShape(image, reference);
   const double c1 = (0.01 * peak) * (0.01 * peak);
@@ -228,8 +230,8 @@ DominantLight findDominantLight(
       }
       const double w = weights.at<float>(j, i);
       const double power = y.at<float>(j, i) * w;
-      const glm::vec3 d = equirectangularToDirection(
-        glm::vec2((i + 0.5f) / y.cols, (j + 0.5f) / y.rows));
+      const glm::vec3 d =
+        equirectangularToDirection(glm::vec2((i + 0.5f) / y.cols, (j + 0.5f) / y.rows));
       direction += glm::dvec3(d) * power;
       flux += power;
       solidAngle += w * texel;
@@ -237,7 +239,8 @@ DominantLight findDominantLight(
   }
   light.FluxFraction = flux / std::max(total, 1e-300);
   light.SolidAngle = solidAngle;
-  light.Direction = glm::length(direction) > 0.0 ? glm::vec3(glm::normalize(direction)) : glm::vec3(0.0f);
+  light.Direction =
+    glm::length(direction) > 0.0 ? glm::vec3(glm::normalize(direction)) : glm::vec3(0.0f);
   light.Found = light.FluxFraction >= minimumFluxFraction && solidAngle <= maximumSolidAngle &&
     glm::length(direction) > 0.0;
   return light;
