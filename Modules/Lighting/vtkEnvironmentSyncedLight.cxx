@@ -37,6 +37,8 @@ struct vtkEnvironmentSyncedLight::Internals
   double LastFrameIndex = -1.0;
   std::string LoadedResponseFile;
   cv::Mat Panorama;
+  // Warn once when the volume leaves the proxy room, not on every frame it stays outside.
+  bool ProxyWasAdjusted = false;
 };
 
 vtkEnvironmentSyncedLight::vtkEnvironmentSyncedLight()
@@ -314,12 +316,13 @@ int vtkEnvironmentSyncedLight::RequestData(
     }
     const auto& status = alignment.update(ToGlm(this->HeadsetPose),
       glm::vec3(this->VolumeCenter[0], this->VolumeCenter[1], this->VolumeCenter[2]));
-    if (status.ProxyAdjusted)
+    if (status.ProxyAdjusted && !this->Internal->ProxyWasAdjusted)
     {
       vtkWarningMacro("The volume centre lies outside the proxy room; the room was enlarged to "
         << status.EffectiveRadius << " (sphere) or the centre clamped into it (box). Set "
         << "ProxyRadius or ProxyBox to the real room's size.");
     }
+    this->Internal->ProxyWasAdjusted = status.ProxyAdjusted;
 
     hv::lighting::LightSourceEstimator::Parameters estimation =
       synchronizer.estimator().parameters();

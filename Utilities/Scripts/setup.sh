@@ -12,7 +12,7 @@ HOLOVOLUME_BUILD_DIR="${HOLOVOLUME_BUILD_DIR:-$HOLOVOLUME_SOURCE_DIR/build}"
 HOLOVOLUME_PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libvtk9-dev python3-vtk9 libtbb-dev
-  libglm-dev libopencv-dev libopenexr-dev libopenimageio-dev openimageio-tools
+  libglm-dev libopencv-dev libopenexr-dev libopenimageio-dev openimageio-tools nlohmann-json3-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   xvfb xauth libgl1-mesa-dri
   mricron-data blender-data

@@ -13,5 +13,16 @@ import vtkmodules.vtkRenderingVolume  # noqa: F401
 
 from .holoRenderingPathTracing import vtkPathTracedVolumeMapper  # noqa: F401
 from .holoIOEnvironment import vtkEnvironmentMapReader  # noqa: F401
+from .holoLighting import (  # noqa: F401
+    vtkDualFisheyeToEquirectangular,
+    vtkEnvironmentSyncedLight,
+    vtkPanoramaVideoSource,
+)
 
-__all__ = ["vtkPathTracedVolumeMapper", "vtkEnvironmentMapReader"]
+__all__ = [
+    "vtkPathTracedVolumeMapper",
+    "vtkEnvironmentMapReader",
+    "vtkPanoramaVideoSource",
+    "vtkDualFisheyeToEquirectangular",
+    "vtkEnvironmentSyncedLight",
+]

@@ -7,8 +7,7 @@
 // estimation, and bad input is reported without a crash.
 #include "vtkEnvironmentSyncedLight.h"
 
-#include "hv/lighting/CameraResponse.h"
-#include "hv/lighting/LensGlare.h"
+#include "LightingTestUtilities.h"
 
 #include "vtkCommand.h"
 #include "vtkDataArray.h"
@@ -83,16 +82,7 @@ vtkSmartPointer<vtkImageData> MakeLdrPanorama(int width, const Lamp* lamps, int 
       linear.at<cv::Vec3f>(row, i) = value;
     }
   }
-  hv::lighting::applyLensGlare(linear, linear, hv::lighting::LensGlare());
-  cv::Mat codes;
-  hv::lighting::CameraResponse().encode(linear, codes);
-  auto image = vtkSmartPointer<vtkImageData>::New();
-  image->SetDimensions(width, height, 1);
-  image->AllocateScalars(VTK_UNSIGNED_CHAR, 3);
-  // VTK's rows run from the nadir up.
-  cv::Mat view(height, width, CV_8UC3, image->GetScalarPointer());
-  cv::flip(codes, view, 0);
-  return image;
+  return lightingtest::FilmLdrPanorama(linear);
 }
 
 struct ErrorCounter : public vtkCommand

@@ -8,8 +8,7 @@
 
 #include "vtkEnvironmentSyncedLight.h"
 
-#include "hv/lighting/CameraResponse.h"
-#include "hv/lighting/LensGlare.h"
+#include "LightingTestUtilities.h"
 
 #include "vtkFieldData.h"
 #include "vtkTrivialProducer.h"
@@ -37,16 +36,7 @@ vtkSmartPointer<vtkImageData> MakeRoom(bool lampOn)
       }
     }
   }
-  hv::lighting::applyLensGlare(linear, linear, hv::lighting::LensGlare());
-  cv::Mat codes;
-  hv::lighting::CameraResponse().encode(linear, codes);
-  auto image = vtkSmartPointer<vtkImageData>::New();
-  image->SetDimensions(width, height, 1);
-  image->AllocateScalars(VTK_UNSIGNED_CHAR, 3);
-  // VTK's rows run from the nadir up.
-  cv::Mat view(height, width, CV_8UC3, image->GetScalarPointer());
-  cv::flip(codes, view, 0);
-  return image;
+  return lightingtest::FilmLdrPanorama(linear);
 }
 
 double MeanRadiance(vtkPathTracedVolumeMapper* mapper)
