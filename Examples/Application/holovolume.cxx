@@ -2,30 +2,52 @@
 // Copyright (c) 2026 the HoloVolume developers.
 //
 // holovolume: path-traced stereo renders of a CT/MRI volume under an HDR environment,
-// written to PNG (and optionally the HDR/auxiliary buffers to .vti). Later versions grow
-// this into the full mixed-reality pipeline.
+// written to PNG (and optionally the HDR/auxiliary buffers to .vti). The environment is an HDR
+// panorama file (still mode) or the live radiance map of a 360-degree camera (live mode,
+// --camera: vtkPanoramaVideoSource -> vtkDualFisheyeToEquirectangular ->
+// vtkEnvironmentSyncedLight -> the mapper). Later versions grow this into the full
+// mixed-reality pipeline.
 #include "vtkHoloVolumeScene.h"
 
 #include "vtkCallbackCommand.h"
 #include "vtkCommand.h"
+#include "vtkDualFisheyeToEquirectangular.h"
 #include "vtkEnvironmentMapReader.h"
+#include "vtkEnvironmentSyncedLight.h"
+#include "vtkExecutive.h"
+#include "vtkFloatArray.h"
 #include "vtkImageAppend.h"
 #include "vtkImageData.h"
 #include "vtkLight.h"
 #include "vtkLightCollection.h"
 #include "vtkNew.h"
 #include "vtkPNGWriter.h"
+#include "vtkPanoramaVideoSource.h"
 #include "vtkPathTracedVolumeMapper.h"
 #include "vtkPointData.h"
+#include "vtkPolyData.h"
 #include "vtkSMPTools.h"
 #include "vtkUnsignedCharArray.h"
 #include "vtkVolume.h"
 #include "vtkXMLImageDataWriter.h"
 
+#include "hv/lighting/CameraResponse.h"
+#include "hv/lighting/FisheyeCalibration.h"
+#include "hv/lighting/IlluminationDifference.h"
+#include "hv/lighting/PanoramaFrameGrabber.h"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/photo.hpp>
+
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <iostream>
 #include <string>
 #include <sys/stat.h>
@@ -34,6 +56,10 @@
 
 namespace
 {
+// Mean radiance that --environment-intensity auto gives the first radiance map of a camera:
+// about that of the CC0 HDR panoramas of blender-data (0.1-1.1, median 0.5, as stored).
+constexpr double AutoMeanLuminance = 0.5;
+
 struct Options
 {
   std::string Volume = holovolume::DefaultVolume();
@@ -51,12 +77,25 @@ struct Options
   std::string ToneMapping = "aces";
   double EnvironmentYaw = 0.0;
   double EnvironmentIntensity = 1.0;
+  // Live mode: scale the first radiance map to a mean luminance of AutoMeanLuminance.
+  bool AutoEnvironmentIntensity = true;
   double Azimuth = 35.0;
   unsigned int Seed = 0;
   bool SaveBuffers = false;
   bool Transparent = false;
   bool ShowEnvironment = false;
   int Threads = 0;
+  // Live mode (--camera): the environment is the radiance map of a 360-degree camera.
+  std::string Camera;
+  std::string Calibration = "ricoh-theta";
+  int CameraFrames = 30;
+  bool CameraPacing = true;
+  bool CameraLoop = false;
+  double CameraWait = 0.0;
+  double ProxyRadius = 2500.0;
+  std::string HeadsetPosition = "viewer";
+  double RelightThreshold = 0.05;
+  bool SaveEnvironment = false;
 };
 
 void PrintHelp()
@@ -65,7 +104,9 @@ void PrintHelp()
     R"(Usage: holovolume [options]
 
 Renders a CT or MRI volume with HoloVolume's Monte-Carlo path tracer, lit by an HDR
-environment map, for both eyes of a headset, and writes PNG images.
+environment map, for both eyes of a headset, and writes PNG images. The environment is an
+HDR panorama file, or, in live mode (--camera), the light of the real room filmed by a
+360-degree camera, re-estimated for every camera frame.
 
 Defaults use real data from Debian packages: the ch2 head MRI (mricron-data) and the
 'courtyard' HDR panorama (blender-data).
@@ -74,18 +115,52 @@ Input
   -v, --volume FILE          NIfTI (.nii, .nii.gz) or VTK XML image (.vti) volume
                              [/usr/share/mricron/templates/ch2.nii.gz]
   -e, --environment FILE     HDR panorama (.exr, .hdr), twice as wide as high, or
-                             'uniform' for a uniform white sky
+                             'uniform' for a uniform white sky; not used with --camera
                              [/usr/share/blender/datafiles/studiolights/world/courtyard.exr]
-      --environment-yaw DEG  turn the panorama about the head's up axis [0]
-      --environment-intensity X  scale the environment's radiance [1]
+      --environment-yaw DEG  turn the panorama (or the camera) about the head's up axis [0]
+      --environment-intensity X  scale the environment's radiance; 'auto' (live mode
+                             only) scales the first radiance map of the camera to a mean
+                             radiance of 0.5, that of typical HDR panoramas [1; live: auto]
+
+Live lighting from a 360-degree camera (Documentation/LiveLighting.md)
+      --camera SOURCE        the camera: a video file (.mp4, H.264 ...), /dev/videoN or a
+                             device number, a stream URL (rtsp://, udp://, http://), an
+                             image, or numbered images (frames/theta_%04d.png). Without a
+                             camera, holovolume-simulate-camera films an HDR panorama.
+      --calibration NAME     the camera's lenses: a preset (ricoh-theta, insta360-one-x),
+                             a calibration JSON file (Documentation/FisheyeCalibration.md),
+                             or 'equirectangular' for frames that are already panoramas
+                             (LDR images or video; an EXR/HDR is used as HDR) [ricoh-theta]
+      --camera-frames N      frames to render; each takes the newest camera frame [30]
+      --camera-no-pacing     files: decode as fast as possible (frames are skipped while
+                             rendering) instead of at the file's frame rate, as a camera
+                             would deliver them
+      --camera-loop          files: start again at the end
+      --camera-wait S        before each frame, wait up to S seconds for a camera frame
+                             newer than the last (to follow a recording frame by frame
+                             when rendering is faster than the camera); 0: never wait,
+                             render again with the same frame if none came [0]
+      --proxy-radius MM      radius of the room around the camera, in the volume's units
+                             (millimetres for NIfTI): lights are re-projected from the
+                             camera to the volume's centre through this sphere [2500]
+      --headset-position P   where the camera is, in the volume's coordinates: 'viewer'
+                             (between the rendered eyes), 'center' (the volume's centre:
+                             no re-projection), 'origin', or X,Y,Z; it is upright, its
+                             front lens facing the way the face looks [viewer]
+      --relight-threshold T  the radiance map in use is replaced, and the progressive
+                             accumulation restarts, when the newest map differs from it by
+                             an illumination difference T at least this (0: every new
+                             camera frame) [0.05]
+      --save-environment     also write the radiance map in use (tone-mapped) and the
+                             stitched camera panorama as PNG
 
 Rendering
   -m, --model NAME           path-traced, emission-absorption, gradient-phong,
-                             prefiltered-environment, or all (one image set each)
-                             [path-traced]
+                             prefiltered-environment, or all (one image set each;
+                             live mode renders one model) [path-traced]
       --width N, --height N  pixels per eye [720 x 468; HoloLens 2 is 1440 x 936]
       --spp N                samples per pixel per frame [2]
-      --frames N             frames accumulated progressively [32]
+      --frames N             frames accumulated progressively (not live) [32]
       --bounces N            scatter events per path; 1 = single scattering [1]
       --mono                 one centred view instead of a stereo pair
       --ipd MM               interpupillary distance in volume units (mm) [64]
@@ -100,12 +175,42 @@ Output
       --transparent          keep the alpha channel instead of a dark background
       --show-environment     draw the environment behind the volume
       --save-buffers         also write each eye's HDR radiance and auxiliary buffers
-                             (first-scatter position, depth, albedo, normal) as .vti
+                             (first-scatter position, depth, albedo, normal) as .vti,
+                             and in live mode the radiance map as live-environment.vti
   -h, --help                 this text
 
 Writes <model>-left.png, <model>-right.png and <model>-stereo.png (side by side) for
-a stereo pair, <model>.png for --mono.
+a stereo pair, <model>.png for --mono. Live mode writes the last frame as
+live-<model>-left.png and so on, plus live-environment.png and live-camera-panorama.png
+with --save-environment, and prints per frame: the camera frame, the illumination
+difference T, the number of detected lights, and the time of the lighting chain and of
+the render.
 )";
+}
+
+// --headset-position: where the 360-degree camera is, in the volume's coordinates.
+bool ParseHeadsetPosition(
+  const std::string& text, vtkCamera* camera, const double volumeCenter[3], double position[3])
+{
+  if (text == "center")
+  {
+    std::copy(volumeCenter, volumeCenter + 3, position);
+    return true;
+  }
+  if (text == "viewer")
+  {
+    camera->GetPosition(position);
+    return true;
+  }
+  if (text == "origin")
+  {
+    position[0] = position[1] = position[2] = 0.0;
+    return true;
+  }
+  char end = 0;
+  return std::sscanf(
+           text.c_str(), "%lf,%lf,%lf%c", &position[0], &position[1], &position[2], &end) == 3 &&
+    std::isfinite(position[0]) && std::isfinite(position[1]) && std::isfinite(position[2]);
 }
 
 bool ParseArguments(int argc, char* argv[], Options& options)
@@ -134,7 +239,12 @@ bool ParseArguments(int argc, char* argv[], Options& options)
     else if (argument == "--environment-yaw")
       options.EnvironmentYaw = std::atof(value("--environment-yaw"));
     else if (argument == "--environment-intensity")
-      options.EnvironmentIntensity = std::atof(value("--environment-intensity"));
+    {
+      const std::string intensity = value("--environment-intensity");
+      options.AutoEnvironmentIntensity = intensity == "auto";
+      options.EnvironmentIntensity =
+        options.AutoEnvironmentIntensity ? 1.0 : std::atof(intensity.c_str());
+    }
     else if (argument == "-o" || argument == "--output")
       options.Output = value("--output");
     else if (argument == "-m" || argument == "--model")
@@ -184,6 +294,26 @@ bool ParseArguments(int argc, char* argv[], Options& options)
       options.ShowEnvironment = true;
     else if (argument == "--save-buffers")
       options.SaveBuffers = true;
+    else if (argument == "--camera")
+      options.Camera = value("--camera");
+    else if (argument == "--calibration")
+      options.Calibration = value("--calibration");
+    else if (argument == "--camera-frames")
+      options.CameraFrames = std::atoi(value("--camera-frames"));
+    else if (argument == "--camera-no-pacing")
+      options.CameraPacing = false;
+    else if (argument == "--camera-loop")
+      options.CameraLoop = true;
+    else if (argument == "--camera-wait")
+      options.CameraWait = std::atof(value("--camera-wait"));
+    else if (argument == "--proxy-radius")
+      options.ProxyRadius = std::atof(value("--proxy-radius"));
+    else if (argument == "--headset-position")
+      options.HeadsetPosition = value("--headset-position");
+    else if (argument == "--relight-threshold")
+      options.RelightThreshold = std::atof(value("--relight-threshold"));
+    else if (argument == "--save-environment")
+      options.SaveEnvironment = true;
     else
     {
       std::cerr << "holovolume: unknown option '" << argument << "' (see --help)\n";
@@ -200,6 +330,52 @@ bool ParseArguments(int argc, char* argv[], Options& options)
   {
     std::cerr << "holovolume: --tone-mapping must be aces or clamp\n";
     return false;
+  }
+  if (options.Camera.empty() && options.AutoEnvironmentIntensity)
+  {
+    options.AutoEnvironmentIntensity = false; // an HDR file has its own scale
+  }
+  if (!(options.EnvironmentIntensity > 0.0))
+  {
+    std::cerr << "holovolume: --environment-intensity must be positive (or auto with --camera)\n";
+    return false;
+  }
+  if (!options.Camera.empty())
+  {
+    if (options.CameraFrames < 1)
+    {
+      std::cerr << "holovolume: --camera-frames must be positive\n";
+      return false;
+    }
+    if (!(options.ProxyRadius > 0.0))
+    {
+      std::cerr << "holovolume: --proxy-radius must be positive (millimetres for NIfTI)\n";
+      return false;
+    }
+    if (!(options.CameraWait >= 0.0 && options.CameraWait <= 3600.0))
+    {
+      std::cerr << "holovolume: --camera-wait must lie in [0, 3600] seconds\n";
+      return false;
+    }
+    if (!(options.RelightThreshold >= 0.0 && options.RelightThreshold <= 1.0))
+    {
+      std::cerr << "holovolume: --relight-threshold must lie in [0, 1]\n";
+      return false;
+    }
+    double position[3];
+    if (options.HeadsetPosition != "viewer" && options.HeadsetPosition != "center" &&
+      options.HeadsetPosition != "origin" &&
+      !ParseHeadsetPosition(options.HeadsetPosition, nullptr, nullptr, position))
+    {
+      std::cerr << "holovolume: --headset-position must be viewer, center, origin or X,Y,Z, not '"
+                << options.HeadsetPosition << "'\n";
+      return false;
+    }
+    if (options.Models.size() != 1)
+    {
+      std::cerr << "holovolume: live mode (--camera) renders one model; choose it with --model\n";
+      return false;
+    }
   }
   return true;
 }
@@ -268,6 +444,530 @@ void WritePNG(vtkImageData* image, const std::string& path)
   writer->SetFileName(path.c_str());
   writer->Write();
 }
+
+// What a frame is rendered with.
+struct Scene
+{
+  vtkPathTracedVolumeMapper* Mapper = nullptr;
+  vtkVolume* Volume = nullptr;
+  vtkMatrix4x4* View[2] = { nullptr, nullptr };
+  vtkMatrix4x4* Projection[2] = { nullptr, nullptr };
+  vtkLightCollection* Lights = nullptr; // for the gradient-Phong model
+};
+
+void SelectModel(vtkPathTracedVolumeMapper* mapper, const std::string& model)
+{
+  if (model == "path-traced")
+    mapper->SetIlluminationModelToPathTraced();
+  else if (model == "emission-absorption")
+    mapper->SetIlluminationModelToEmissionAbsorption();
+  else if (model == "gradient-phong")
+    mapper->SetIlluminationModelToGradientPhong();
+  else
+    mapper->SetIlluminationModelToPrefilteredEnvironment();
+}
+
+bool RenderFrame(const Scene& scene, const Options& options, const std::string& model)
+{
+  vtkLightCollection* lights = model == "gradient-phong" ? scene.Lights : nullptr;
+  const int ok = options.Stereo
+    ? scene.Mapper->RenderStereoFrame(scene.Volume, scene.View[0], scene.Projection[0],
+        scene.View[1], scene.Projection[1], options.Width, options.Height, lights)
+    : scene.Mapper->RenderEye(
+        scene.Volume, 0, scene.View[0], scene.Projection[0], options.Width, options.Height, lights);
+  if (!ok)
+  {
+    std::cerr << "\nholovolume: rendering failed (see the message above)\n";
+  }
+  return ok != 0;
+}
+
+// Writes the display images of the last frame (and with --save-buffers each eye's buffers):
+// <prefix>-{left,right,stereo}.png, or <prefix>.png for a mono view.
+void WriteEyeImages(
+  vtkPathTracedVolumeMapper* mapper, const Options& options, const std::string& prefix)
+{
+  if (options.Stereo)
+  {
+    auto left = DisplayImage(mapper, 0, options.Transparent);
+    auto right = DisplayImage(mapper, 1, options.Transparent);
+    WritePNG(left, prefix + "-left.png");
+    WritePNG(right, prefix + "-right.png");
+    vtkNew<vtkImageAppend> sideBySide;
+    sideBySide->SetAppendAxis(0);
+    sideBySide->AddInputData(left);
+    sideBySide->AddInputData(right);
+    sideBySide->Update();
+    WritePNG(sideBySide->GetOutput(), prefix + "-stereo.png");
+    std::cout << "               wrote " << prefix << "-{left,right,stereo}.png\n";
+  }
+  else
+  {
+    WritePNG(DisplayImage(mapper, 0, options.Transparent), prefix + ".png");
+    std::cout << "               wrote " << prefix << ".png\n";
+  }
+  if (options.SaveBuffers)
+  {
+    for (int eye = 0; eye < (options.Stereo ? 2 : 1); ++eye)
+    {
+      vtkNew<vtkXMLImageDataWriter> writer;
+      writer->SetInputData(mapper->GetEyeOutput(eye));
+      const std::string path = prefix + (eye == 0 ? "-left" : "-right") + "-buffers.vti";
+      writer->SetFileName(path.c_str());
+      writer->Write();
+      std::cout << "               wrote " << path << "\n";
+    }
+  }
+}
+
+// ---- Live mode ----
+
+// A float RGB(A) image's scalars as an OpenCV image in the lighting kernels' conventions
+// (RGB, row 0 at the top): VTK's rows run from the bottom up.
+cv::Mat ToTopDownRgb(vtkImageData* image)
+{
+  int dims[3];
+  image->GetDimensions(dims);
+  vtkDataArray* scalars = image->GetPointData()->GetScalars();
+  if (!scalars || dims[0] < 1 || dims[1] < 1 ||
+    (scalars->GetNumberOfComponents() != 3 && scalars->GetNumberOfComponents() != 4))
+  {
+    return cv::Mat();
+  }
+  int depth;
+  switch (scalars->GetDataType())
+  {
+    case VTK_UNSIGNED_CHAR:
+      depth = CV_8U;
+      break;
+    case VTK_UNSIGNED_SHORT:
+      depth = CV_16U;
+      break;
+    case VTK_FLOAT:
+      depth = CV_32F;
+      break;
+    default:
+      return cv::Mat();
+  }
+  const cv::Mat wrapped(dims[1], dims[0], CV_MAKETYPE(depth, scalars->GetNumberOfComponents()),
+    scalars->GetVoidPointer(0));
+  cv::Mat flipped, rgb;
+  cv::flip(wrapped, flipped, 0);
+  if (flipped.channels() == 4)
+  {
+    cv::cvtColor(flipped, rgb, cv::COLOR_RGBA2RGB);
+    return rgb;
+  }
+  return flipped;
+}
+
+// Writes a panorama for people to look at. HDR radiance (toneMap) goes through Reinhard et
+// al.'s global operator (2002; OpenCV's photo module, display gamma 2.2); a camera's linear
+// panorama (1 = the sensor's clip level) is encoded back to sRGB as the camera recorded it.
+bool WritePanoramaPNG(vtkImageData* image, const std::string& path, bool toneMap)
+{
+  const cv::Mat rgb = ToTopDownRgb(image);
+  if (rgb.empty())
+  {
+    return false;
+  }
+  cv::Mat rgb8;
+  if (rgb.depth() == CV_8U)
+  {
+    rgb8 = rgb;
+  }
+  else if (rgb.depth() == CV_16U)
+  {
+    rgb.convertTo(rgb8, CV_8U, 1.0 / 257.0);
+  }
+  else if (toneMap)
+  {
+    cv::Mat bgr, mapped;
+    cv::cvtColor(rgb, bgr, cv::COLOR_RGB2BGR); // the operator's luminance weights assume BGR
+    // Global adaptation (light_adapt 0): per-pixel adaptation lifts the noise of dark
+    // texels into coloured blotches.
+    cv::createTonemapReinhard(2.2f, 0.0f, 0.0f, 0.0f)->process(bgr, mapped);
+    cv::Mat bgr8;
+    mapped.convertTo(bgr8, CV_8U, 255.0);
+    return cv::imwrite(path, bgr8);
+  }
+  else
+  {
+    hv::lighting::CameraResponse().encode(rgb, rgb8);
+  }
+  cv::Mat bgr8;
+  cv::cvtColor(rgb8, bgr8, cv::COLOR_RGB2BGR);
+  return cv::imwrite(path, bgr8);
+}
+
+// Mean Rec. 709 luminance of an equirectangular radiance map over the sphere: rows are
+// weighted by sin(theta), the solid angle of their texels.
+double MeanLuminance(vtkImageData* map)
+{
+  const cv::Mat rgb = ToTopDownRgb(map);
+  if (rgb.empty() || rgb.depth() != CV_32F)
+  {
+    return 0.0;
+  }
+  cv::Mat luminance, rowMeans;
+  cv::transform(rgb, luminance, cv::Matx13f(0.2126f, 0.7152f, 0.0722f));
+  cv::reduce(luminance, rowMeans, 1, cv::REDUCE_AVG, CV_64F);
+  double sum = 0.0, weights = 0.0;
+  for (int row = 0; row < rowMeans.rows; ++row)
+  {
+    const double weight = std::sin(vtkMath::Pi() * (row + 0.5) / rowMeans.rows);
+    sum += weight * rowMeans.at<double>(row);
+    weights += weight;
+  }
+  return sum / weights;
+}
+
+// Checks --calibration and sets it on the stitcher: a preset, or a calibration file that
+// loads and validates ('equirectangular' needs no stitcher and is handled by the caller).
+bool ConfigureCalibration(const std::string& calibration, vtkDualFisheyeToEquirectangular* stitcher)
+{
+  std::string presets;
+  for (int i = 0; i < vtkDualFisheyeToEquirectangular::GetNumberOfPresets(); ++i)
+  {
+    const std::string name = vtkDualFisheyeToEquirectangular::GetPresetName(i);
+    if (calibration == name)
+    {
+      stitcher->SetPreset(name.c_str());
+      return true;
+    }
+    presets += (presets.empty() ? "" : ", ") + name;
+  }
+  if (!holovolume::FileExists(calibration))
+  {
+    std::cerr << "holovolume: --calibration '" << calibration << "' is neither a preset ("
+              << presets << "), 'equirectangular', nor a calibration JSON file "
+              << "(Documentation/FisheyeCalibration.md)\n";
+    return false;
+  }
+  try
+  {
+    hv::lighting::loadCalibration(calibration);
+  }
+  catch (const std::exception& error)
+  {
+    std::cerr << "holovolume: calibration file '" << calibration
+              << "' is not usable: " << error.what() << "\n";
+    return false;
+  }
+  stitcher->SetCalibrationFileName(calibration.c_str());
+  return true;
+}
+
+// Files that do not exist are reported before anything is loaded; cameras, streams and
+// numbered images are checked when they are opened.
+bool CheckCameraSource(const std::string& source)
+{
+  const hv::lighting::PanoramaSourceKind kind =
+    hv::lighting::PanoramaFrameGrabber::classifySource(source);
+  if ((kind == hv::lighting::PanoramaSourceKind::VideoFile ||
+        kind == hv::lighting::PanoramaSourceKind::ImageFile) &&
+    !holovolume::FileExists(source))
+  {
+    std::cerr << "holovolume: camera source '" << source << "' not found. Give a video file, "
+              << "an image, numbered images (frames/theta_%04d.png), /dev/videoN or a stream "
+              << "URL; holovolume-simulate-camera makes a video without a camera.\n";
+    return false;
+  }
+  return true;
+}
+
+// Live mode: every frame takes the newest camera frame through the lighting chain (stitching,
+// world alignment and volume-centred warp, HDR estimation, T), installs the new radiance map
+// when the light changed, and renders one more progressive frame.
+int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeData,
+  vtkCamera* camera, vtkMatrix4x4* environmentToWorld, ProgressState& progress)
+{
+  const std::string& model = options.Models.front();
+  vtkPathTracedVolumeMapper* mapper = scene.Mapper;
+
+  vtkNew<vtkPanoramaVideoSource> source;
+  source->SetSource(options.Camera.c_str());
+  source->SetPaceToFrameRate(options.CameraPacing);
+  source->SetLoop(options.CameraLoop);
+  // Each rendered frame takes the newest camera frame once, at its start (UpdateToNewestFrame),
+  // so that the stages below see the same frame.
+  source->AutoAdvanceOff();
+  vtkNew<vtkDualFisheyeToEquirectangular> stitcher;
+  vtkNew<vtkEnvironmentSyncedLight> synced;
+  const bool equirectangular = options.Calibration == "equirectangular";
+  if (equirectangular)
+  {
+    synced->SetInputConnection(source->GetOutputPort());
+  }
+  else
+  {
+    if (!ConfigureCalibration(options.Calibration, stitcher))
+    {
+      return 2;
+    }
+    stitcher->SetInputConnection(source->GetOutputPort());
+    synced->SetInputConnection(stitcher->GetOutputPort());
+  }
+
+  // Frames. The synced light works in a room frame: +Y up, the frame of an upright headset,
+  // in which the camera panorama is defined; the volume's world (RAS for NIfTI, millimetres)
+  // is that room turned by environmentToWorld, the same rotation the still mode gives an HDR
+  // panorama. The camera is upright with its front lens along the room's -Z (the way the
+  // face looks, turned by --environment-yaw): the headset pose is the identity rotation and
+  // the camera's position. Q comes out in the room frame, and the mapper turns it into the
+  // world with environmentToWorld. Positions and the proxy radius are in the volume's units.
+  double bounds[6];
+  volumeData->GetBounds(bounds);
+  const double volumeCenter[3] = { 0.5 * (bounds[0] + bounds[1]), 0.5 * (bounds[2] + bounds[3]),
+    0.5 * (bounds[4] + bounds[5]) };
+  double headsetPosition[3];
+  if (!ParseHeadsetPosition(options.HeadsetPosition, camera, volumeCenter, headsetPosition))
+  {
+    std::cerr << "holovolume: --headset-position must be viewer, center, origin or X,Y,Z, not '"
+              << options.HeadsetPosition << "'\n";
+    return 2;
+  }
+  auto toRoom = [&](const double world[3], double room[3])
+  {
+    for (int i = 0; i < 3; ++i)
+    {
+      room[i] = 0.0;
+      for (int j = 0; j < 3; ++j)
+      {
+        room[i] += environmentToWorld->GetElement(j, i) * world[j];
+      }
+    }
+  };
+  double roomHeadset[3], roomCenter[3];
+  toRoom(headsetPosition, roomHeadset);
+  toRoom(volumeCenter, roomCenter);
+  vtkNew<vtkMatrix4x4> headsetPose;
+  for (int i = 0; i < 3; ++i)
+  {
+    headsetPose->SetElement(i, 3, roomHeadset[i]);
+  }
+  synced->SetHeadsetPose(headsetPose);
+  synced->SetVolumeCenter(roomCenter);
+  synced->SetProxyRadius(options.ProxyRadius);
+  const double distance = std::sqrt(vtkMath::Distance2BetweenPoints(headsetPosition, volumeCenter));
+  const double diagonal = std::sqrt((bounds[1] - bounds[0]) * (bounds[1] - bounds[0]) +
+    (bounds[3] - bounds[2]) * (bounds[3] - bounds[2]) +
+    (bounds[5] - bounds[4]) * (bounds[5] - bounds[4]));
+  if (distance >= options.ProxyRadius)
+  {
+    std::cerr << "holovolume: the volume's centre is " << distance
+              << " units from the camera, outside the proxy room (--proxy-radius "
+              << options.ProxyRadius << "); give the room's real size, in the volume's units\n";
+    return 2;
+  }
+  const double front[3] = { -environmentToWorld->GetElement(0, 2),
+    -environmentToWorld->GetElement(1, 2), -environmentToWorld->GetElement(2, 2) };
+  std::printf("Camera       %s (%s)\n", options.Camera.c_str(),
+    equirectangular ? "equirectangular frames" : options.Calibration.c_str());
+  std::printf("Lighting     camera at (%.0f, %.0f, %.0f), %.0f from the volume centre (%.0f, "
+              "%.0f, %.0f); front lens along (%.2f, %.2f, %.2f), upright; proxy room: sphere "
+              "of radius %.0f (volume units: mm for NIfTI)\n",
+    headsetPosition[0], headsetPosition[1], headsetPosition[2], distance, volumeCenter[0],
+    volumeCenter[1], volumeCenter[2], front[0], front[1], front[2], options.ProxyRadius);
+  if (options.ProxyRadius > 100.0 * diagonal)
+  {
+    std::cerr << "holovolume: note: the volume is " << diagonal << " units across and the proxy "
+              << "room " << options.ProxyRadius << "; if the volume is in metres, pass "
+              << "--proxy-radius in metres too\n";
+  }
+
+  if (!source->Open())
+  {
+    std::cerr << "holovolume: cannot open the camera source '" << options.Camera
+              << "' (see the message above)\n";
+    return 1;
+  }
+  std::printf("               %s, %s\n", source->GetSourceKind(), source->GetFrameEncoding());
+
+  // The radiance map the mapper renders with. A copy, so that the mapper's accumulation
+  // restarts only when the map is replaced, not at every camera frame (sensor noise and
+  // compression change every frame a little).
+  vtkNew<vtkImageData> inUse;
+  bool haveMap = false;
+  hv::lighting::IlluminationDifference difference;
+  SelectModel(mapper, model);
+
+  progress.Label = "live " + model;
+  progress.Frames = options.CameraFrames;
+  vtkTypeInt64 lastCameraFrame = -1;
+  // Milliseconds summed over the frames: frame copy, stitching, synced light, relight test,
+  // render.
+  enum Stage
+  {
+    Copy,
+    Stitch,
+    Synced,
+    Relight,
+    Render,
+    Stages
+  };
+  double total[Stages] = { 0.0, 0.0, 0.0, 0.0, 0.0 };
+  int relights = 0;
+  using Clock = std::chrono::steady_clock;
+  auto milliseconds = [](Clock::time_point from, Clock::time_point to)
+  { return std::chrono::duration<double, std::milli>(to - from).count(); };
+  const auto start = Clock::now();
+  for (progress.Frame = 0; progress.Frame < progress.Frames; ++progress.Frame)
+  {
+    // The newest camera frame, never waiting for the camera, through the chain stage by stage
+    // (each Update() finds the stages upstream up to date), so each stage can be timed.
+    // The first frame is the one Open() took. With --camera-wait, wait for a newer one (the
+    // wait is not lighting time); otherwise take whatever is newest, never waiting.
+    bool newer = false;
+    if (progress.Frame > 0 && options.CameraWait > 0.0)
+    {
+      newer = source->WaitForNewFrame(options.CameraWait);
+    }
+    const auto t0 = Clock::now();
+    if (progress.Frame > 0 && !newer)
+    {
+      source->UpdateToNewestFrame();
+    }
+    bool ok = source->GetExecutive()->Update();
+    const auto t1 = Clock::now();
+    ok = ok && (equirectangular || stitcher->GetExecutive()->Update());
+    const auto t2 = Clock::now();
+    ok = ok && synced->GetExecutive()->Update() && synced->GetOutput()->GetNumberOfPoints() > 0;
+    const auto t3 = Clock::now();
+    if (!ok)
+    {
+      std::cerr << "\nholovolume: the lighting chain failed on camera frame "
+                << source->GetFrameIndex() << " (see the message above)"
+                << (equirectangular ? "; equirectangular frames must be twice as wide as high, and "
+                                      "dual-fisheye frames need the camera's --calibration"
+                                    : "; if the frames are already panoramas, pass "
+                                      "--calibration equirectangular")
+                << "\n";
+      return 1;
+    }
+    const vtkTypeInt64 cameraFrame = source->GetFrameIndex();
+    const bool newCameraFrame = cameraFrame != lastCameraFrame;
+    lastCameraFrame = cameraFrame;
+    bool relit = false;
+    if (!haveMap)
+    {
+      relit = true;
+    }
+    else if (newCameraFrame)
+    {
+      // How far the newest map is from the one in use (the same log-SSIM measure as T).
+      auto* current =
+        vtkFloatArray::SafeDownCast(synced->GetOutput()->GetPointData()->GetScalars());
+      auto* used = vtkFloatArray::SafeDownCast(inUse->GetPointData()->GetScalars());
+      int dims[3];
+      inUse->GetDimensions(dims);
+      const cv::Mat previousMap(dims[1], dims[0], CV_32FC3, used->GetPointer(0));
+      const cv::Mat currentMap(dims[1], dims[0], CV_32FC3, current->GetPointer(0));
+      relit = difference.compute(previousMap, currentMap) >= options.RelightThreshold;
+    }
+    if (relit)
+    {
+      inUse->DeepCopy(synced->GetOutput());
+      inUse->Modified();
+      if (!haveMap)
+      {
+        mapper->SetEnvironmentMapData(inUse);
+        haveMap = true;
+        if (options.AutoEnvironmentIntensity)
+        {
+          // An LDR camera gives radiance relative to its clip level, not absolute radiance:
+          // like a photographer's exposure, the scale is fixed once, from the first map, so
+          // that later changes of the light (a lamp switching on) still show.
+          const double mean = MeanLuminance(inUse);
+          const double intensity = mean > 0.0 ? AutoMeanLuminance / mean : 1.0;
+          mapper->SetEnvironmentIntensity(intensity);
+          if (isatty(fileno(stderr)))
+          {
+            std::fprintf(stderr, "\r%80s\r", "");
+          }
+          std::printf("Environment  intensity x%.4g (auto: mean radiance %.4g of the first map "
+                      "to %.2g; --environment-intensity sets it)\n",
+            intensity, mean, AutoMeanLuminance);
+        }
+      }
+      ++relights;
+    }
+    const auto t4 = Clock::now();
+    if (!RenderFrame(scene, options, model))
+    {
+      return 1;
+    }
+    const auto t5 = Clock::now();
+    const double stage[Stages] = { milliseconds(t0, t1), milliseconds(t1, t2), milliseconds(t2, t3),
+      milliseconds(t3, t4), milliseconds(t4, t5) };
+    for (int i = 0; i < Stages; ++i)
+    {
+      total[i] += stage[i];
+    }
+    const double lightingMilliseconds = milliseconds(t0, t4);
+    const double renderMilliseconds = stage[Render];
+    if (isatty(fileno(stderr)))
+    {
+      std::fprintf(stderr, "\r%80s\r", "");
+    }
+    vtkPolyData* detected = synced->GetDetectedLights();
+    std::printf("  frame %3d/%d  camera frame %lld%s  T %.3f  lights %lld  lighting %.1f ms  "
+                "render %.1f ms  %s %d\n",
+      progress.Frame + 1, progress.Frames, static_cast<long long>(cameraFrame),
+      newCameraFrame ? "" : " (same)", synced->GetIlluminationDifference(),
+      static_cast<long long>(detected ? detected->GetNumberOfPoints() : 0), lightingMilliseconds,
+      renderMilliseconds, relit ? "relit, accumulated" : "accumulated",
+      mapper->GetAccumulatedFrames(0));
+    std::fflush(stdout);
+  }
+  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  const double n = progress.Frames;
+  std::printf("  %-24s %d frames in %.2f s; per frame on average: lighting %.1f ms (frame copy "
+              "%.1f, stitching %.1f, synced light %.1f, relight test %.1f), render %.1f ms (%s)\n"
+              "               radiance map replaced %d times; the camera delivered %lld frames, "
+              "%lld of them overwritten before they were taken\n",
+    ("live " + model).c_str(), progress.Frames, seconds,
+    (total[Copy] + total[Stitch] + total[Synced] + total[Relight]) / n, total[Copy] / n,
+    total[Stitch] / n, total[Synced] / n, total[Relight] / n, total[Render] / n,
+    options.Stereo ? "stereo" : "mono", relights,
+    static_cast<long long>(source->GetFramesReceived()),
+    static_cast<long long>(source->GetFramesDropped()));
+
+  const std::string prefix = options.Output + "/live-" + model;
+  WriteEyeImages(mapper, options, prefix);
+  if (options.SaveEnvironment)
+  {
+    const std::string environmentPath = options.Output + "/live-environment.png";
+    const std::string panoramaPath = options.Output + "/live-camera-panorama.png";
+    vtkImageData* cameraPanorama = equirectangular
+      ? vtkImageData::SafeDownCast(source->GetOutputDataObject(0))
+      : vtkImageData::SafeDownCast(stitcher->GetOutputDataObject(0));
+    // An HDR camera frame (EXR/HDR given as equirectangular) is tone-mapped like Q.
+    const bool sceneLinear = std::strcmp(source->GetFrameEncoding(), "SceneLinear") == 0;
+    if (WritePanoramaPNG(inUse, environmentPath, true) &&
+      WritePanoramaPNG(cameraPanorama, panoramaPath, equirectangular && sceneLinear))
+    {
+      std::cout << "               wrote " << environmentPath << ", " << panoramaPath << "\n";
+    }
+    else
+    {
+      std::cerr << "holovolume: could not write " << environmentPath << " or " << panoramaPath
+                << "\n";
+      return 1;
+    }
+  }
+  if (options.SaveBuffers)
+  {
+    vtkNew<vtkXMLImageDataWriter> writer;
+    writer->SetInputData(inUse);
+    const std::string path = options.Output + "/live-environment.vti";
+    writer->SetFileName(path.c_str());
+    writer->Write();
+    std::cout << "               wrote " << path << "\n";
+  }
+  source->Close();
+  return 0;
+}
 }
 
 int main(int argc, char* argv[])
@@ -280,6 +980,20 @@ int main(int argc, char* argv[])
   if (options.Threads > 0)
   {
     vtkSMPTools::Initialize(options.Threads);
+  }
+  const bool live = !options.Camera.empty();
+  if (live && !CheckCameraSource(options.Camera))
+  {
+    return 1;
+  }
+  if (live && options.Calibration != "equirectangular")
+  {
+    // Checked before the volume is read, so that a wrong name fails at once.
+    vtkNew<vtkDualFisheyeToEquirectangular> probe;
+    if (!ConfigureCalibration(options.Calibration, probe))
+    {
+      return 2;
+    }
   }
   if (!holovolume::FileExists(options.Volume))
   {
@@ -307,7 +1021,11 @@ int main(int argc, char* argv[])
   vtkNew<vtkPathTracedVolumeMapper> mapper;
   mapper->SetInputData(volumeData);
   vtkNew<vtkEnvironmentMapReader> environmentReader;
-  if (options.Environment != "uniform")
+  if (live)
+  {
+    // The camera's radiance map comes in RenderLive().
+  }
+  else if (options.Environment != "uniform")
   {
     if (!holovolume::FileExists(options.Environment))
     {
@@ -377,7 +1095,8 @@ int main(int argc, char* argv[])
   mkdir(options.Output.c_str(), 0755);
   std::cout << "Output       " << options.Output << "/ (" << options.Width << "x" << options.Height
             << " per eye, " << (options.Stereo ? "stereo" : "mono") << ", "
-            << options.SamplesPerPixel << " spp x " << options.Frames << " frames)\n";
+            << options.SamplesPerPixel << " spp x "
+            << (live ? options.CameraFrames : options.Frames) << " frames)\n";
 
   ProgressState progress;
   vtkNew<vtkCallbackCommand> progressCallback;
@@ -385,30 +1104,32 @@ int main(int argc, char* argv[])
   progressCallback->SetClientData(&progress);
   mapper->AddObserver(vtkCommand::ProgressEvent, progressCallback);
 
+  Scene scene;
+  scene.Mapper = mapper;
+  scene.Volume = volume;
+  for (int eye = 0; eye < 2; ++eye)
+  {
+    scene.View[eye] = view[eye];
+    scene.Projection[eye] = projection[eye];
+  }
+  scene.Lights = lights;
+
+  if (live)
+  {
+    return RenderLive(options, scene, volumeData, camera, environmentToWorld, progress);
+  }
+
   for (const std::string& model : options.Models)
   {
-    if (model == "path-traced")
-      mapper->SetIlluminationModelToPathTraced();
-    else if (model == "emission-absorption")
-      mapper->SetIlluminationModelToEmissionAbsorption();
-    else if (model == "gradient-phong")
-      mapper->SetIlluminationModelToGradientPhong();
-    else
-      mapper->SetIlluminationModelToPrefilteredEnvironment();
+    SelectModel(mapper, model);
     // Only the path tracer gains from progressive frames; the others are near-deterministic.
     progress.Label = model;
     progress.Frames = model == "path-traced" ? options.Frames : std::min(options.Frames, 4);
     const auto start = std::chrono::steady_clock::now();
     for (progress.Frame = 0; progress.Frame < progress.Frames; ++progress.Frame)
     {
-      const int ok = options.Stereo
-        ? mapper->RenderStereoFrame(volume, view[0], projection[0], view[1], projection[1],
-            options.Width, options.Height, model == "gradient-phong" ? lights.Get() : nullptr)
-        : mapper->RenderEye(volume, 0, view[0], projection[0], options.Width, options.Height,
-            model == "gradient-phong" ? lights.Get() : nullptr);
-      if (!ok)
+      if (!RenderFrame(scene, options, model))
       {
-        std::cerr << "\nholovolume: rendering failed (see the message above)\n";
         return 1;
       }
     }
@@ -421,39 +1142,7 @@ int main(int argc, char* argv[])
     std::printf("  %-24s %d frames in %.2f s (%.0f ms per %s frame)\n", model.c_str(),
       progress.Frames, seconds, 1000.0 * seconds / progress.Frames,
       options.Stereo ? "stereo" : "mono");
-
-    const std::string prefix = options.Output + "/" + model;
-    if (options.Stereo)
-    {
-      auto left = DisplayImage(mapper, 0, options.Transparent);
-      auto right = DisplayImage(mapper, 1, options.Transparent);
-      WritePNG(left, prefix + "-left.png");
-      WritePNG(right, prefix + "-right.png");
-      vtkNew<vtkImageAppend> sideBySide;
-      sideBySide->SetAppendAxis(0);
-      sideBySide->AddInputData(left);
-      sideBySide->AddInputData(right);
-      sideBySide->Update();
-      WritePNG(sideBySide->GetOutput(), prefix + "-stereo.png");
-      std::cout << "               wrote " << prefix << "-{left,right,stereo}.png\n";
-    }
-    else
-    {
-      WritePNG(DisplayImage(mapper, 0, options.Transparent), prefix + ".png");
-      std::cout << "               wrote " << prefix << ".png\n";
-    }
-    if (options.SaveBuffers)
-    {
-      for (int eye = 0; eye < (options.Stereo ? 2 : 1); ++eye)
-      {
-        vtkNew<vtkXMLImageDataWriter> writer;
-        writer->SetInputData(mapper->GetEyeOutput(eye));
-        const std::string path = prefix + (eye == 0 ? "-left" : "-right") + "-buffers.vti";
-        writer->SetFileName(path.c_str());
-        writer->Write();
-        std::cout << "               wrote " << path << "\n";
-      }
-    }
+    WriteEyeImages(mapper, options, options.Output + "/" + model);
   }
   return 0;
 }
