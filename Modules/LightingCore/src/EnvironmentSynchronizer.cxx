@@ -87,24 +87,34 @@ const EnvironmentSynchronizer::Result& EnvironmentSynchronizer::process(
   }
   result.LinearizeMilliseconds = millisecondsSince(start);
 
-  const int height = this->OutputHeight > 0 ? this->OutputHeight : cameraPanorama.rows;
-  this->Alignment.setOutputSize(2 * height, height);
-  this->Alignment.apply(*linear, this->Aligned);
-  result.AlignMilliseconds = millisecondsSince(start);
-
-  // Q in units of the reference exposure.
+  // Q in the camera's frame. The light sources are estimated before the volume-centred warp:
+  // the estimator models the lens's point-spread function as isotropic around each light,
+  // which holds in the camera's panorama but not after the warp stretches it.
+  const cv::Mat* cameraRadiance = linear;
   if (range == PanoramaDynamicRange::Low)
   {
-    this->Estimator.estimate(this->Aligned, cv::Mat(), this->Recovered, result.Lights);
+    this->Estimator.estimate(*linear, cv::Mat(), this->Recovered, result.Lights);
+    cameraRadiance = &this->Recovered;
   }
   else
   {
-    this->Aligned.copyTo(this->Recovered);
-    this->Estimator.detect(this->Recovered, result.Lights);
+    this->Estimator.detect(*linear, result.Lights);
   }
+  result.RecoverMilliseconds = millisecondsSince(start);
+
+  // Rotate into the world and re-centre on the volume; the lights follow (their solid angles
+  // and radiances stay those seen from the camera).
+  const int height = this->OutputHeight > 0 ? this->OutputHeight : cameraPanorama.rows;
+  this->Alignment.setOutputSize(2 * height, height);
+  this->Alignment.apply(*cameraRadiance, this->Aligned);
+  for (DetectedLight& light : result.Lights)
+  {
+    light.Direction = this->Alignment.volumeDirectionFromCameraDirection(light.Direction);
+  }
+  // Q in units of the reference exposure.
   if (this->Exposure != 1.0f)
   {
-    this->Recovered *= 1.0 / this->Exposure;
+    this->Aligned *= 1.0 / this->Exposure;
     for (DetectedLight& light : result.Lights)
     {
       light.Intensity /= this->Exposure;
@@ -114,11 +124,11 @@ const EnvironmentSynchronizer::Result& EnvironmentSynchronizer::process(
       light.SourceRadiance /= this->Exposure;
     }
   }
-  result.RecoverMilliseconds = millisecondsSince(start);
+  result.AlignMilliseconds = millisecondsSince(start);
 
   if (newFrame)
   {
-    result.IlluminationDifference = this->Difference.update(this->Recovered);
+    result.IlluminationDifference = this->Difference.update(this->Aligned);
     result.PatchSimilarity = this->Difference.patchSimilarity().clone();
   }
   result.DifferenceMilliseconds = millisecondsSince(start);
@@ -143,14 +153,14 @@ const EnvironmentSynchronizer::Result& EnvironmentSynchronizer::process(
         this->Filter.apply(this->PreviousSmoothed, 0.0f);
       }
     }
-    this->Filter.apply(this->Recovered, result.IlluminationDifference, result.Radiance);
+    this->Filter.apply(this->Aligned, result.IlluminationDifference, result.Radiance);
     result.TemporalBlendWeight = this->Filter.lastBlendWeight();
   }
   else
   {
     this->Filter.reset();
     this->PreviousSmoothed.release();
-    this->Recovered.copyTo(result.Radiance);
+    this->Aligned.copyTo(result.Radiance);
     result.TemporalBlendWeight = 1.0f;
   }
   result.SmoothMilliseconds = millisecondsSince(start);

@@ -28,10 +28,11 @@ enum class PanoramaDynamicRange
 };
 
 // The per-frame chain of Section 3.1 after stitching, for one camera-frame panorama:
-//   linearise (display-referred input) -> rotate into the world and re-centre on the volume
-//   -> recover Q (LDR input) -> illumination difference T -> temporal smoothing of Q.
-// The radiance is recovered after the alignment so that Q and the detected lights are in
-// world directions seen from the volume, the frame the renderer and T need.
+//   linearise (display-referred input) -> recover Q (LDR input) -> rotate into the world and
+//   re-centre on the volume -> illumination difference T -> temporal smoothing of Q.
+// The radiance is recovered in the camera's panorama, where a light's glare is isotropic as
+// the estimator assumes; Q and the detected lights then move to world directions seen from
+// the volume, the frame the renderer and T need.
 class EnvironmentSynchronizer
 {
 public:
