@@ -206,3 +206,65 @@ TEST(EnvironmentSynchronizer, LampRecoveredWhenTheCameraIsAwayFromTheVolume)
   cv::minMaxLoc(result.Radiance.reshape(1), nullptr, &maximum);
   EXPECT_GT(maximum, 10.0) << "the clipped lamp is expanded above the clip level";
 }
+
+// The synchroniser composes Q in place where the buffer is its own and hands out the aligned
+// panorama and the temporal filter's buffers instead of copies; the stages run one by one on
+// separate images must give the same maps and T, with and without smoothing, for new and
+// re-processed frames.
+TEST(EnvironmentSynchronizer, ChainWithoutCopiesMatchesTheStagesOneByOne)
+{
+  const glm::vec3 lamp = glm::normalize(glm::vec3(0.4f, 0.7f, -0.6f));
+  const cv::Mat frames[3] = { cameraPanorama(256, lamp, 8.0f, 60.0f, 1.0, 1),
+    cameraPanorama(256, lamp, 8.0f, 60.0f, 1.0, 2),
+    cameraPanorama(256, lamp, 8.0f, 60.0f, 1.0, 3) };
+  for (const bool smoothing : { true, false })
+  {
+    hv::lighting::EnvironmentSynchronizer synchronizer;
+    synchronizer.setTemporalSmoothing(smoothing);
+    hv::lighting::CameraResponse response;
+    hv::lighting::PanoramaAlignment alignment;
+    hv::lighting::LightSourceEstimator estimator;
+    hv::lighting::IlluminationDifference difference;
+    hv::lighting::RadianceTemporalFilter filter;
+    alignment.setOutputSize(512, 256); // the synchroniser's default output height is 256
+    cv::Mat previousOutput;            // the stages' output of the previous frame
+    for (int k = 0; k < 3; ++k)
+    {
+      const glm::mat4 headset =
+        glm::rotate(glm::translate(glm::mat4(1.0f), glm::vec3(0.3f * k, 1.6f, 0.2f)), 0.3f * k,
+          glm::vec3(0, 1, 0));
+      synchronizer.alignment().update(headset, glm::vec3(0.0f, 1.0f, 0.0f));
+      const auto& result =
+        synchronizer.process(frames[k], hv::lighting::PanoramaDynamicRange::Low, true);
+
+      cv::Mat linear, q, aligned;
+      std::vector<hv::lighting::DetectedLight> lights;
+      response.linearize(frames[k], linear);
+      estimator.estimate(linear, cv::Mat(), q, lights);
+      alignment.update(headset, glm::vec3(0.0f, 1.0f, 0.0f));
+      alignment.apply(q, aligned);
+      const float t = difference.update(aligned);
+      const cv::Mat expected = smoothing ? filter.apply(aligned, t).clone() : aligned;
+      EXPECT_EQ(result.IlluminationDifference, t) << k;
+      EXPECT_EQ(cv::norm(result.Radiance, expected, cv::NORM_INF), 0.0) << k << smoothing;
+      ASSERT_EQ(result.Lights.size(), lights.size());
+      for (size_t i = 0; i < lights.size(); ++i)
+      {
+        EXPECT_EQ(result.Lights[i].Power, lights[i].Power);
+      }
+      if (k > 0 && smoothing)
+      {
+        EXPECT_GT(cv::norm(previousOutput, expected, cv::NORM_INF), 0.0) << "frames differ";
+      }
+      previousOutput = expected.clone();
+      if (k == 1)
+      {
+        // Re-processing the frame (here at the same pose) restarts from the same history.
+        const cv::Mat kept = result.Radiance.clone();
+        synchronizer.process(frames[k], hv::lighting::PanoramaDynamicRange::Low, false);
+        EXPECT_EQ(cv::norm(synchronizer.result().Radiance, kept, cv::NORM_INF), 0.0);
+        EXPECT_EQ(synchronizer.result().IlluminationDifference, t);
+      }
+    }
+  }
+}

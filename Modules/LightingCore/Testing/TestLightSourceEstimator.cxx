@@ -485,3 +485,49 @@ TEST(LightSourceEstimator, ModelCheckDeclinesClippedRegionsWithoutAHalo)
     EXPECT_EQ(cv::norm(q, linear, cv::NORM_INF), 0.0);
   }
 }
+
+// Q may be composed in place (the synchroniser does, to save a copy of the map): the result
+// must equal the one written to a separate image, lights included, with fitted and declined
+// regions both present.
+TEST(LightSourceEstimator, InPlaceEstimateMatchesSeparateOutput)
+{
+  cv::Mat scene =
+    renderScene(512, 0.1, { { 0.3, 0.4, 10.0 * Deg, 100.0 }, { 0.8, 0.3, 5.0 * Deg, 300.0 } });
+  cv::rectangle(scene, cv::Rect(20, 150, 40, 12), cv::Scalar::all(5.0), cv::FILLED); // no halo
+  cv::Mat linear;
+  cv::Mat mask;
+  capture(scene, linear, mask);
+  for (const bool withMask : { false, true })
+  {
+    LightSourceEstimator separate;
+    cv::Mat q;
+    std::vector<DetectedLight> lights;
+    separate.estimate(linear, withMask ? mask : cv::Mat(), q, lights);
+    LightSourceEstimator inPlace;
+    cv::Mat shared = linear.clone();
+    std::vector<DetectedLight> sharedLights;
+    inPlace.estimate(shared, withMask ? mask : cv::Mat(), shared, sharedLights);
+    EXPECT_EQ(cv::norm(shared, q, cv::NORM_INF), 0.0);
+    ASSERT_EQ(sharedLights.size(), lights.size());
+    int estimated = 0;
+    for (size_t i = 0; i < lights.size(); ++i)
+    {
+      EXPECT_EQ(sharedLights[i].Power, lights[i].Power);
+      EXPECT_EQ(sharedLights[i].Direction, lights[i].Direction);
+      estimated += lights[i].Estimated ? 1 : 0;
+    }
+    EXPECT_EQ(estimated, 2) << "the two disks are fitted, the hard-edged panel is not";
+    EXPECT_EQ(cv::norm(inPlace.lightLabels(), separate.lightLabels(), cv::NORM_INF), 0.0);
+    // An estimator that saw another frame (its labels are cleared only where they were) labels
+    // the next one as a fresh one does: the lights move to other rows here.
+    cv::Mat flipped;
+    cv::flip(linear, flipped, 0);
+    LightSourceEstimator fresh;
+    cv::Mat q1, q2;
+    std::vector<DetectedLight> lights1, lights2;
+    fresh.estimate(flipped, cv::Mat(), q1, lights1);
+    separate.estimate(flipped, cv::Mat(), q2, lights2);
+    EXPECT_EQ(cv::norm(fresh.lightLabels(), separate.lightLabels(), cv::NORM_INF), 0.0);
+    EXPECT_EQ(cv::norm(q1, q2, cv::NORM_INF), 0.0);
+  }
+}

@@ -224,3 +224,36 @@ TEST(PanoramaAlignment, BadInputIsRejected)
   EXPECT_THROW(alignment.apply(cv::Mat(30, 64, CV_32FC3), aligned), std::invalid_argument);
   EXPECT_THROW(alignment.apply(cv::Mat(32, 64, CV_32FC1), aligned), std::invalid_argument);
 }
+
+// After a new pose, apply() builds the remap tables a band of rows at a time and resamples each
+// band while its tables are in the cache; a second apply() with the same pose resamples the whole
+// panorama with one cv::remap over the complete tables. Both must give the same floats, for
+// both proxies, in place too, and for an output size that differs from the input's.
+TEST(PanoramaAlignment, BandedResamplingMatchesOneRemapOverTheWholeTables)
+{
+  cv::Mat panorama(128, 256, CV_32FC3);
+  cv::randu(panorama, 0.0f, 1.0f);
+  for (const bool box : { false, true })
+  {
+    hv::lighting::PanoramaAlignment alignment;
+    alignment.setOutputSize(200, 100);
+    if (box)
+    {
+      alignment.setProxyBox(glm::vec3(-3.0f, 0.0f, -2.5f), glm::vec3(3.5f, 2.8f, 3.0f));
+    }
+    alignment.update(
+      pose(37.0f, -12.0f, glm::vec3(0.7f, 1.6f, -0.4f)), glm::vec3(0.2f, 1.0f, 0.3f));
+    cv::Mat banded;
+    alignment.apply(panorama, banded);
+    cv::Mat whole;
+    alignment.apply(panorama, whole); // the tables are complete now: one cv::remap
+    ASSERT_EQ(banded.size(), cv::Size(200, 100));
+    EXPECT_EQ(cv::norm(banded, whole, cv::NORM_INF), 0.0) << (box ? "box" : "sphere");
+    // In place: the output replaces the input it is resampled from.
+    alignment.update(
+      pose(37.0f, -12.0f, glm::vec3(0.7f, 1.6f, -0.4f)), glm::vec3(0.2f, 1.0f, 0.3f));
+    cv::Mat inPlace = panorama.clone();
+    alignment.apply(inPlace, inPlace);
+    EXPECT_EQ(cv::norm(inPlace, whole, cv::NORM_INF), 0.0) << (box ? "box" : "sphere");
+  }
+}

@@ -177,3 +177,34 @@ TEST(RadianceTemporalFilter, BadInputGivesClearErrors)
   p.HighThreshold = 0.3f;
   EXPECT_THROW(filter.setParameters(p), std::invalid_argument);
 }
+
+// The filter blends into a second buffer (no copy of the history, the NaN check in the same
+// pass): the result equals Q_out = a Q + (1 - a) Q_out(t-1) as cv::addWeighted computes it, the
+// map returned by one call is not written by the next, and a bad frame leaves the history as it
+// was.
+TEST(RadianceTemporalFilter, BlendInASecondBufferMatchesAddWeighted)
+{
+  RadianceTemporalFilter filter;
+  cv::Mat a(64, 128, CV_32FC3), b(64, 128, CV_32FC3), c(64, 128, CV_32FC3);
+  cv::RNG rng(5);
+  rng.fill(a, cv::RNG::UNIFORM, 0.0, 2.0);
+  rng.fill(b, cv::RNG::UNIFORM, 0.0, 2.0);
+  rng.fill(c, cv::RNG::UNIFORM, 0.0, 2.0);
+  const cv::Mat first = filter.apply(a, 0.0f); // a shallow copy, kept across the next call
+  EXPECT_EQ(cv::norm(first, a, cv::NORM_INF), 0.0);
+  const cv::Mat second = filter.apply(b, 0.1f);
+  const float w = filter.blendWeight(0.1f);
+  cv::Mat expected;
+  cv::addWeighted(b, w, a, 1.0 - w, 0.0, expected);
+  EXPECT_LT(cv::norm(second, expected, cv::NORM_INF), 1e-6);
+  EXPECT_EQ(cv::norm(first, a, cv::NORM_INF), 0.0) << "the next call wrote the previous result";
+  cv::Mat bad = c.clone();
+  bad.at<cv::Vec3f>(10, 20)[1] = HUGE_VALF;
+  EXPECT_THROW(filter.apply(bad, 0.1f), std::invalid_argument);
+  const cv::Mat third = filter.apply(c, 0.1f); // blends into the history before the bad frame
+  cv::addWeighted(c, w, expected, 1.0 - w, 0.0, expected);
+  EXPECT_LT(cv::norm(third, expected, cv::NORM_INF), 1e-6);
+  cv::Mat copy;
+  filter.apply(a, 1.0f, copy);
+  EXPECT_EQ(cv::norm(copy, a, cv::NORM_INF), 0.0);
+}

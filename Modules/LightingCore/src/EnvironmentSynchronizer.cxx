@@ -93,8 +93,19 @@ const EnvironmentSynchronizer::Result& EnvironmentSynchronizer::process(
   const cv::Mat* cameraRadiance = linear;
   if (range == PanoramaDynamicRange::Low)
   {
-    this->Estimator.estimate(*linear, cv::Mat(), this->Recovered, result.Lights);
-    cameraRadiance = &this->Recovered;
+    // No copy of the map: Q is composed in place in the linearised frame when that is ours
+    // (8/16-bit input); for the caller's float panorama, it is copied only when a light's
+    // radiance is restored (otherwise Q is the panorama itself).
+    if (linear == &this->Linear)
+    {
+      this->Estimator.estimate(this->Linear, cv::Mat(), this->Linear, result.Lights);
+    }
+    else
+    {
+      bool unchanged = false;
+      this->Estimator.estimate(*linear, cv::Mat(), this->Recovered, result.Lights, &unchanged);
+      cameraRadiance = unchanged ? linear : &this->Recovered;
+    }
   }
   else
   {
@@ -153,14 +164,18 @@ const EnvironmentSynchronizer::Result& EnvironmentSynchronizer::process(
         this->Filter.apply(this->PreviousSmoothed, 0.0f);
       }
     }
-    this->Filter.apply(this->Aligned, result.IlluminationDifference, result.Radiance);
+    // Q is the filter's own buffer (a shallow copy): the filter does not write it during its
+    // next call, when it becomes PreviousSmoothed, but only in the call after.
+    result.Radiance = this->Filter.apply(this->Aligned, result.IlluminationDifference);
     result.TemporalBlendWeight = this->Filter.lastBlendWeight();
   }
   else
   {
     this->Filter.reset();
     this->PreviousSmoothed.release();
-    this->Aligned.copyTo(result.Radiance);
+    // Q itself is the result (a shallow copy); the next frame is aligned into the other buffer.
+    result.Radiance = this->Aligned;
+    std::swap(this->Aligned, this->Spare);
     result.TemporalBlendWeight = 1.0f;
   }
   result.SmoothMilliseconds = millisecondsSince(start);

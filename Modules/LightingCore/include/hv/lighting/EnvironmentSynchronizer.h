@@ -91,9 +91,10 @@ private:
   bool TemporalSmoothing = true;
   bool HasFrame = false;
 
-  cv::Mat Linear;
-  cv::Mat Aligned;
-  cv::Mat Recovered;
+  cv::Mat Linear;    // the linearised frame (8/16-bit input), then Q in the camera's frame
+  cv::Mat Recovered; // Q in the camera's frame for float input
+  cv::Mat Aligned;   // Q in the world, centred on the volume
+  cv::Mat Spare;     // without smoothing, Aligned alternates with it (the result keeps one)
   // The smoothed Q of the previous distinct frame, the history a re-processed frame restarts
   // from.
   cv::Mat PreviousSmoothed;

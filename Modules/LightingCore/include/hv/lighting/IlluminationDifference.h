@@ -77,18 +77,22 @@ private:
     cv::Mat Mean;     // G * l
     cv::Mat MeanOfSq; // G * l^2
   };
-  void validate(const cv::Mat& radiance, const char* what) const;
-  void logStatistics(const cv::Mat& radiance, LogStatistics& out);
-  float compare(const LogStatistics& x, const LogStatistics& y);
+  void validate(const cv::Mat& radiance, const char* what, bool checkFinite) const;
+  // l and its windowed moments for a radiance map; with the previous frame's statistics, also
+  // the SSIM map between the two (Ssim).
+  void logStatistics(const cv::Mat& radiance, LogStatistics& out, const LogStatistics* previous);
+  void windowedMoments(LogStatistics& current, const LogStatistics* previous);
+  // T from the SSIM map.
+  float compare();
 
   Parameters Params;
   LogStatistics Previous;
   LogStatistics Current;
-  cv::Mat Luminance;
-  cv::Mat Product;
-  cv::Mat MeanOfProduct;
-  cv::Mat Ssim;
-  cv::Mat Scratch;
+  cv::Mat Padded;         // one row of each signal, with reflected borders (+ one spare row)
+  cv::Mat RowWindowed[3]; // ring of rows of the signals after the window's horizontal pass
+  cv::Mat Ssim;           // the SSIM map, when the grid does not divide the panorama
+  cv::Mat SsimRows;       // otherwise one row of it and the running sum of a block row's rows
+  bool PatchesSummed = false;
   cv::Mat PatchSimilarity;
   float Difference = MaxDifference;
   bool HasHistory = false;

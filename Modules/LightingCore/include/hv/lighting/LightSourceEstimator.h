@@ -120,10 +120,13 @@ public:
   // linear: CV_32FC3 RGB, width = 2 x height, finite, from CameraResponse (or the stitcher).
   // saturationMask: empty, or CV_8UC1 of the same size, non-zero where the sensor clipped.
   // radiance (Q): CV_32FC3, same size, linear, same units as `linear`; equal to `linear` outside
-  // the restored regions. lights: one entry per detected region, the most powerful first.
-  // Throws std::invalid_argument for bad input.
+  // the restored regions; it may be `linear` itself (Q is then composed in place, saving a copy).
+  // lights: one entry per detected region, the most powerful first. radianceIsInput: when
+  // given, and the light-source model restores no light (Q equals `linear`, the common case for
+  // real scenes), `radiance` is left as it is and *radianceIsInput is true: the caller uses
+  // `linear` as Q and no copy of the map is made. Throws std::invalid_argument for bad input.
   void estimate(const cv::Mat& linear, const cv::Mat& saturationMask, cv::Mat& radiance,
-    std::vector<DetectedLight>& lights);
+    std::vector<DetectedLight>& lights, bool* radianceIsInput = nullptr);
 
   // Scene-linear (HDR) input needs no estimation: detects its bright regions with the
   // statistical threshold only and describes them from the input itself.
@@ -140,51 +143,86 @@ private:
     bool Clipped = false;
     float Peak = 0.0f; // largest brightest-channel value
   };
-  struct Bilinear // precomputed bilinear lookup into a patch; Index < 0: outside (zero)
+  // Bilinear lookups into a patch are stored as Index (of the top-left of the four pixels, -1:
+  // outside the patch, value 0) and the fractions Fx, Fy.
+  // Per pixel of a run of one panorama row: cos of the angle to the light, tangent coordinates,
+  // the lookups into the fine and the coarse patch, and the signed distance to
+  // the region there.
+  struct TangentRowBuffers
   {
-    int Index = -1;
-    float Fx = 0.0f, Fy = 0.0f;
+    std::vector<float> CosRho, TangentX, TangentY, Depth, FineFx, FineFy, CoarseFx, CoarseFy;
+    std::vector<int> FineIndex, CoarseIndex;
+    std::vector<uchar> Kind;     // the set the pixel joins, see fitLight()
+    std::vector<int> Members[3]; // the run's pixels per set
+    void resize(int count);
   };
-  struct Sample
+  // Samples of one light's window (panorama pixels), one array per quantity so that the loops
+  // run for every candidate support vectorise and stream only what they read.
+  struct SampleSet
   {
-    float PatchX, PatchY;     // position in the tangent patch (patch pixels)
-    float TangentX, TangentY; // azimuthal-equidistant coordinates (radians)
-    float Luminance;
-    float Model;           // blurred support at the sample
-    Bilinear Fine, Coarse; // lookups into the core-blurred and the (coarser) halo-blurred patch
-    int Pixel;
-    int Kind; // 0 fitted, 1 region (constraint), 3 guard band outside, 4 guard band inside
+    std::vector<float> TangentX, TangentY; // azimuthal-equidistant coordinates (radians)
+    std::vector<float> Luminance;
+    std::vector<float> Model; // blurred support at the sample
+    // Lookups into the core- and the halo-blurred patch.
+    std::vector<int> FineIndex, CoarseIndex;
+    std::vector<float> FineFx, FineFy, CoarseFx, CoarseFy;
+    std::vector<int> Pixel; // y * width + x
+    int Count = 0;          // samples held (the arrays may be longer)
+    int size() const { return this->Count; }
+    void clear() { this->Count = 0; }
+    // Appends the row run's pixels `members` (indices into the run).
+    // rgb: the run's first pixel in the linear panorama.
+    void append(const TangentRowBuffers& row, const int* members, int count, const float* rgb,
+      int firstPixel);
   };
 
+  // The light being fitted, in float for the per-pixel loop (tangentRow()).
+  struct TangentFrame
+  {
+    glm::vec3 Centre, Axis1, Axis2; // c0, e1, e2
+    float InversePitch = 1.0f;      // patch pixels per radian
+    float PatchCentre = 0.0f;
+    int PatchSize = 1;
+    int HaloFactor = 1;
+  };
   void validate(const cv::Mat& linear, const cv::Mat& mask) const;
+  void tangentRow(int y, int first, int count);
   void prepareGeometry(int width, int height);
   void computeBrightness(const cv::Mat& linear);
+  void markRowsWithCandidates();
   float statisticalThreshold(float mads);
   void findRegions(const cv::Mat& candidates, const cv::Mat& mask, float minPeak);
   void describe(const cv::Mat& q, const Region& region, DetectedLight& light) const;
-  bool fitLight(
-    const cv::Mat& linear, const cv::Mat& mask, int index, cv::Mat& q, DetectedLight& light);
+  // qWritten: whether q holds the input yet (it is copied before the first write otherwise).
+  bool fitLight(const cv::Mat& linear, const cv::Mat& mask, int index, cv::Mat& q, bool& qWritten,
+    DetectedLight& light);
   float evaluateSupport(float delta, float& radiance, double background[3], double& residual);
 
   Parameters Params;
   int Width = 0;
   int Height = 0;
   std::vector<float> RowSolidAngle, SinTheta, CosTheta, SinPhi, CosPhi;
-  cv::Mat Luminance, Brightness, Candidates, ComponentLabels, Labels;
+  cv::Mat Brightness, Candidates, ComponentBuffer, ComponentLabels, Labels;
+  std::vector<uchar> RowHasCandidates; // per row of Candidates: any candidate pixel
+  int LabelledRows[2] = { 0, 0 };      // the rows of Labels that may be non-zero
   std::vector<float> LogSamples;
   std::vector<int> Parent, RootArea, RegionOfRoot, RegionOfLabel; // per connected component
   std::vector<Region> Regions;
+  mutable std::vector<char> ColumnScratch; // describe(): the columns a region covers
   float Threshold = 0.0f;
 
   // Per-light fitting buffers (reused between lights and frames).
   int PatchSize = 0;
   float PatchPitch = 0.0f;
   int HaloFactor = 1; // the halo is blurred on a patch HaloFactor times coarser
-  cv::Mat CoreMask, InsideDistance, OutsideDistance, SignedDistance, Support, CoreBlur, HaloSupport,
-    HaloBlur;
-  std::vector<Sample> Samples; // [0, FitEnd) fitted, [FitEnd, ConstraintEnd) constraints, rest
-  int FitEnd = 0;
-  int ConstraintEnd = 0;
+  cv::Mat RasterCandidates, CoreMask, OutsideMask, InsideDistance, OutsideDistance, SignedDistance,
+    Support, CoreBlur, HaloSupport, HaloBlur, ModelPatch;
+  cv::Mat CoreKernel, HaloKernel; // the Gaussians of evaluateSupport() for this light's patch
+  TangentFrame Frame;
+  TangentRowBuffers Row;
+  SampleSet Fitted;             // unclipped surroundings: the fit
+  SampleSet Constraints;        // the region's interior: the model must reach the observation
+  SampleSet Interior;           // the region's guard band: part of the light, constrains nothing
   cv::Matx33d BackgroundNormal; // sum of (1, X, Y)(1, X, Y)^T over the fitted samples
   cv::Vec3d BackgroundRhs;      // sum of (1, X, Y) Y_obs
   double SumLuminanceSq = 0.0;

@@ -76,7 +76,9 @@ public:
 private:
   glm::vec3 proxyPoint(const glm::vec3& worldDirection) const;
   void buildDirectionTable();
-  void buildMaps(cv::Size sourceSize) const;
+  // Rows [firstRow, lastRow) of the remap tables, into texel and fraction from their row 0.
+  void buildMaps(
+    cv::Size sourceSize, int firstRow, int lastRow, cv::Mat& texel, cv::Mat& fraction) const;
 
   int Width = 512;
   int Height = 256;
@@ -94,15 +96,20 @@ private:
   Status LastStatus;
   bool HasPose = false;
 
-  // World direction of every output texel centre, one array per component so that the
-  // per-texel loop vectorises.
-  std::vector<float> DirectionX, DirectionY, DirectionZ;
+  // The output texel centres' directions (equirectangularToDirection()) factored into sin/cos
+  // theta per row and sin/cos phi per column.
+  std::vector<float> RowSin, RowCos, ColumnSin, ColumnCos;
+  // Per-row scratch of buildMaps().
+  mutable std::vector<float> RowScratch;
   // cv::remap's fixed-point maps (integer texel and 5-bit sub-texel index) for the pose of
-  // the last update() and the source size last seen by apply().
+  // the last update() and the source size last seen by apply(): a band of rows at a time after
+  // a new pose, the whole tables (kept, MapsValid) once the same pose is applied again.
   mutable cv::Mat MapTexel;    // CV_16SC2
   mutable cv::Mat MapFraction; // CV_16UC1
+  mutable cv::Mat BandTexel, BandFraction;
   mutable cv::Size MappedSourceSize;
   mutable bool MapsValid = false;
+  mutable bool PoseApplied = false; // apply() has run since the last update()
 };
 
 // atan2 to about 1e-5 rad, branch-free so that loops over a panorama vectorise; std::atan2

@@ -35,10 +35,13 @@ public:
   const Parameters& parameters() const { return this->Params; }
 
   // Blends `radiance` (CV_32FC3, 2:1, finite) into the history and returns the filtered map
-  // (owned by the filter, valid until the next call). The first frame, and a frame whose size
-  // differs from the history, is passed through. Throws std::invalid_argument for bad input or
-  // T outside [0, 1] / NaN.
+  // (owned by the filter). The first frame, and a frame whose size differs from the history,
+  // is passed through. Throws std::invalid_argument for bad input or T outside [0, 1] / NaN;
+  // the history is then left as it was. The filter alternates between two buffers: the map
+  // returned by one call is not written by the next call (a caller may keep a shallow copy of
+  // it as the previous frame's output for that long), but by the call after.
   const cv::Mat& apply(const cv::Mat& radiance, float illuminationDifference);
+  // The same, with a deep copy of the result in `filtered`.
   void apply(const cv::Mat& radiance, float illuminationDifference, cv::Mat& filtered);
 
   // a(T) as used by apply().
@@ -51,6 +54,7 @@ public:
 private:
   Parameters Params;
   cv::Mat History;
+  cv::Mat Next; // the buffer the next result is written to, then swapped with History
   float LastBlend = 1.0f;
 };
 }
