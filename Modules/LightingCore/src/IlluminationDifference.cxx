@@ -2,6 +2,8 @@
 // Copyright (c) 2026 the HoloVolume developers.
 #include "hv/lighting/IlluminationDifference.h"
 
+#include "SimdClones.h"
+
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
@@ -11,17 +13,6 @@
 #include <stdexcept>
 #include <string>
 
-// The hot per-pixel loops are compiled twice, for AVX2 and for the baseline instruction set,
-// and the loader picks the one the CPU runs (GCC/Clang function multiversioning on x86-64
-// Linux): AVX2 doubles their speed where it exists without dropping older CPUs.
-#if defined(__x86_64__) && defined(__linux__) && defined(__has_attribute)
-#if __has_attribute(target_clones)
-#define HV_SIMD_CLONES __attribute__((target_clones("avx2", "default")))
-#endif
-#endif
-#ifndef HV_SIMD_CLONES
-#define HV_SIMD_CLONES
-#endif
 // The SSIM pass's row loops (plain arithmetic over rows the caller sized) are left out of
 // AddressSanitizer/UBSan builds' instrumentation: instrumented they ran 20 times slower, over the
 // budget that IlluminationDifference.SpeedOnOneCore asserts; the tests check their results
