@@ -145,13 +145,7 @@ int main(int argc, char* argv[])
     // The camera films the panorama: 8-bit sRGB at an exposure that clips about 1 % of it.
     const hv::lighting::PanoramaFrame hdr =
       hv::lighting::PanoramaFrameGrabber::readImage(environment);
-    cv::Mat maxChannel;
-    cv::Mat channels[3];
-    cv::split(hdr.Image, channels);
-    maxChannel = cv::max(channels[0], cv::max(channels[1], channels[2]));
-    std::vector<float> sorted(maxChannel.begin<float>(), maxChannel.end<float>());
-    std::nth_element(sorted.begin(), sorted.begin() + sorted.size() * 99 / 100, sorted.end());
-    const float exposure = 1.0f / std::max(sorted[sorted.size() * 99 / 100], 1e-6f);
+    const float exposure = hv::lighting::exposureForClippedPercent(hdr.Image, 1.0);
 
     hv::lighting::FisheyeCalibration calibration = hv::lighting::presetCalibration(cameraName);
     const cv::Mat linearFrame =

@@ -63,18 +63,6 @@ void PrintHelp()
     DefaultDirectory);
 }
 
-// The exposure at which `percent` % of the texels have a channel at or above the clip level.
-float ClippingExposure(const cv::Mat& hdr, double percent)
-{
-  cv::Mat channels[3];
-  cv::split(hdr, channels);
-  const cv::Mat maxChannel = cv::max(channels[0], cv::max(channels[1], channels[2]));
-  std::vector<float> values(maxChannel.begin<float>(), maxChannel.end<float>());
-  const size_t index = static_cast<size_t>((1.0 - percent / 100.0) * (values.size() - 1));
-  std::nth_element(values.begin(), values.begin() + index, values.end());
-  return 1.0f / std::max(values[index], 1e-6f);
-}
-
 double ClippedFraction(const cv::Mat& frame8)
 {
   cv::Mat channels[3];
@@ -245,7 +233,7 @@ int main(int argc, char* argv[])
         }
         cv::Mat seen;
         cv::resize(seenFull, seen, outputSize, 0.0, 0.0, cv::INTER_AREA);
-        const float exposure = ClippingExposure(seen, clipPercent);
+        const float exposure = hv::lighting::exposureForClippedPercent(seen, clipPercent);
 
         // The equally quantised panorama, and the clipped LDR panorama the estimators get.
         cv::Mat reference8, ldr;

@@ -317,25 +317,6 @@ void AddLamp(cv::Mat& panorama, const Options& options, float radiance)
 }
 
 // The largest of R, G, B of each pixel where mask is set.
-std::vector<float> MaxChannelValues(const cv::Mat& linear, const cv::Mat& mask)
-{
-  std::vector<float> values;
-  values.reserve(static_cast<size_t>(cv::countNonZero(mask)));
-  for (int row = 0; row < linear.rows; ++row)
-  {
-    const cv::Vec3f* pixel = linear.ptr<cv::Vec3f>(row);
-    const unsigned char* inside = mask.ptr<unsigned char>(row);
-    for (int column = 0; column < linear.cols; ++column)
-    {
-      if (inside[column])
-      {
-        values.push_back(std::max({ pixel[column][0], pixel[column][1], pixel[column][2] }));
-      }
-    }
-  }
-  return values;
-}
-
 // Where the output goes, and how.
 struct Writer
 {
@@ -574,15 +555,12 @@ int main(int argc, char* argv[])
     cv::Mat insideCircles;
     cv::extractChannel(circles, insideCircles, 0);
     insideCircles = insideCircles > 0.0f;
-    std::vector<float> values = MaxChannelValues(linearFrame, insideCircles);
-    if (values.empty())
+    if (cv::countNonZero(insideCircles) == 0)
     {
       Fail("the calibration's image circles do not cover any pixel of the frame");
     }
-    const size_t index =
-      static_cast<size_t>((1.0 - options.ClipPercent / 100.0) * (values.size() - 1));
-    std::nth_element(values.begin(), values.begin() + index, values.end());
-    const float exposure = 1.0f / std::max(values[index], 1e-12f);
+    const float exposure =
+      hv::lighting::exposureForClippedPercent(linearFrame, options.ClipPercent, insideCircles);
 
     if (options.LightSwitchFrame >= 0 && options.LightSwitchFrame < options.Frames)
     {
@@ -623,8 +601,8 @@ int main(int argc, char* argv[])
         cv::Mat channels[3];
         cv::split(frame8, channels);
         maxChannel = cv::max(channels[0], cv::max(channels[1], channels[2]));
-        const double clipped =
-          cv::countNonZero((maxChannel == 255) & insideCircles) * 100.0 / values.size();
+        const double clipped = cv::countNonZero((maxChannel == 255) & insideCircles) * 100.0 /
+          cv::countNonZero(insideCircles);
         std::printf("Clipped      %.2f %% of the pixels that see the room (frame 0)\n", clipped);
       }
       if (options.Noise > 0.0)

@@ -312,3 +312,29 @@ TEST(CameraResponse, LinearisationSpeedOnOneCore)
   }
   cv::setNumThreads(threads);
 }
+
+TEST(CameraResponse, ExposureForClippedPercentClipsThatShare)
+{
+  // 10000 pixels with brightest channels 1..10000 (in any channel order).
+  cv::Mat linear(100, 100, CV_32FC3);
+  for (int k = 0; k < 10000; ++k)
+  {
+    cv::Vec3f pixel(0.5f, 0.5f, 0.5f);
+    pixel[k % 3] = static_cast<float>(k + 1);
+    linear.at<cv::Vec3f>(k / 100, k % 100) = pixel;
+  }
+  const float exposure = hv::lighting::exposureForClippedPercent(linear, 2.0);
+  cv::Mat scaled = linear * exposure;
+  cv::Mat channels[3];
+  cv::split(scaled, channels);
+  const cv::Mat brightest = cv::max(channels[0], cv::max(channels[1], channels[2]));
+  EXPECT_NEAR(cv::countNonZero(brightest >= 1.0f - 1e-6f), 200, 1);
+  // A mask restricts the pixels that count: the top half's values are 1..5000.
+  cv::Mat mask(100, 100, CV_8UC1, cv::Scalar(0));
+  mask.rowRange(0, 50).setTo(255);
+  EXPECT_NEAR(1.0f / hv::lighting::exposureForClippedPercent(linear, 2.0, mask), 4901.0f, 1.0f);
+  EXPECT_THROW(hv::lighting::exposureForClippedPercent(linear, 0.0), std::invalid_argument);
+  EXPECT_THROW(
+    hv::lighting::exposureForClippedPercent(linear, 1.0, cv::Mat(100, 100, CV_8UC1, cv::Scalar(0))),
+    std::invalid_argument);
+}

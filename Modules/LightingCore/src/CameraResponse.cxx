@@ -10,6 +10,7 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
 namespace hv
 {
@@ -537,6 +538,37 @@ CameraResponse CameraResponse::load(const std::string& path)
     throw std::runtime_error("CameraResponse::load: '" + path + "': " + e.what());
   }
   return response;
+}
+
+float exposureForClippedPercent(const cv::Mat& linear, double clippedPercent, const cv::Mat& mask)
+{
+  if (linear.type() != CV_32FC3 || !(clippedPercent > 0.0 && clippedPercent < 100.0) ||
+    (!mask.empty() && (mask.size() != linear.size() || mask.type() != CV_8UC1)))
+  {
+    throw std::invalid_argument("exposureForClippedPercent: expected a CV_32FC3 image, a "
+                                "percentage in (0, 100) and an empty or CV_8UC1 mask of its size");
+  }
+  std::vector<float> brightest;
+  brightest.reserve(linear.total());
+  for (int row = 0; row < linear.rows; ++row)
+  {
+    const cv::Vec3f* pixel = linear.ptr<cv::Vec3f>(row);
+    const unsigned char* inside = mask.empty() ? nullptr : mask.ptr<unsigned char>(row);
+    for (int column = 0; column < linear.cols; ++column)
+    {
+      if (!inside || inside[column])
+      {
+        brightest.push_back(std::max({ pixel[column][0], pixel[column][1], pixel[column][2] }));
+      }
+    }
+  }
+  if (brightest.empty())
+  {
+    throw std::invalid_argument("exposureForClippedPercent: the mask selects no pixel");
+  }
+  const size_t index = static_cast<size_t>((1.0 - clippedPercent / 100.0) * (brightest.size() - 1));
+  std::nth_element(brightest.begin(), brightest.begin() + index, brightest.end());
+  return 1.0f / std::max(brightest[index], 1e-12f);
 }
 }
 }

@@ -93,6 +93,14 @@ private:
   std::vector<float> Inverse16; // 65536 x 3, exposure scale 1
 };
 
+// The exposure (a factor on linear radiance) at which `clippedPercent` % of the pixels have a
+// channel at or above the clip level 1: what a camera's auto-exposure that tolerates that much
+// clipping would choose. linear: CV_32FC3; mask: empty, or CV_8UC1 of its size selecting the
+// pixels that count (e.g. inside the image circles). Throws std::invalid_argument when no pixel
+// counts or the percentage is outside (0, 100).
+float exposureForClippedPercent(
+  const cv::Mat& linear, double clippedPercent, const cv::Mat& mask = cv::Mat());
+
 // sRGB transfer functions (IEC 61966-2-1), for code values normalised to [0, 1].
 float srgbToLinear(float encoded);
 float linearToSrgb(float linear);
