@@ -33,6 +33,7 @@
 #include "vtkRenderer.h"
 #include "vtkSMPTools.h"
 #include "vtkShaderProgram.h"
+#include "vtkStereoSpatioTemporalDenoiser.h"
 #include "vtkTextureObject.h"
 #include "vtkUnsignedCharArray.h"
 #include "vtkVolume.h"
@@ -144,7 +145,14 @@ public:
   vtkMTimeType EnvironmentTime = 0;
   bool EnvironmentValid = false;
   vtkMTimeType SceneKey = 0;
+  int ClassificationStamp = 0;
+  glm::mat4 VolumeMatrix = glm::mat4(1.0f); // the prop's matrix: world from volume
   std::array<EyeState, 2> Eyes;
+  // The right eye's matrices of the last denoised stereo window frame, whose second pass
+  // shows it without rendering again.
+  glm::mat4 DenoisedRightView = glm::mat4(0.0f);
+  glm::mat4 DenoisedRightProjection = glm::mat4(0.0f);
+  bool DenoisedRightReady = false;
 
   vtkTextureObject* Texture = nullptr;
   vtkOpenGLQuadHelper* Quad = nullptr;
@@ -172,6 +180,26 @@ vtkPathTracedVolumeMapper::vtkPathTracedVolumeMapper()
 vtkPathTracedVolumeMapper::~vtkPathTracedVolumeMapper()
 {
   this->EnvironmentToWorldMatrix->Delete();
+  this->SetDenoiser(nullptr);
+}
+
+void vtkPathTracedVolumeMapper::SetDenoiser(vtkStereoSpatioTemporalDenoiser* denoiser)
+{
+  if (this->Denoiser == denoiser)
+  {
+    return;
+  }
+  if (this->Denoiser)
+  {
+    this->Denoiser->UnRegister(this);
+  }
+  this->Denoiser = denoiser;
+  if (this->Denoiser)
+  {
+    this->Denoiser->Register(this);
+  }
+  this->Internals->DenoisedRightReady = false;
+  this->Modified();
 }
 
 int vtkPathTracedVolumeMapper::FillInputPortInformation(int port, vtkInformation* info)
@@ -380,6 +408,7 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
     vtkMatrix4x4::Multiply4x4(volume->GetMatrix(), indexToPhysical, indexToWorld);
   }
   const glm::mat4 indexToWorldGlm = ToGlm(indexToWorld);
+  internals->VolumeMatrix = ToGlm(volume->GetMatrix());
   const bool gradientsChanged = internals->Grid.setIndexToWorld(indexToWorldGlm);
 
   // 3. Classification: the transfer functions as tables over the scalar range.
@@ -433,6 +462,7 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
     internals->TransferDensityScale = self->GetDensityScale();
     internals->TransferCellSize = self->GetMacrocellSize();
     internals->TransferGradientOpacity = gradientOpacity;
+    ++internals->ClassificationStamp;
     internals->Transparent = internals->Grid.isTransparent();
     if (internals->Transparent)
     {
@@ -731,7 +761,8 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
     vtkImageData* output = state.Output;
     int dims[3];
     output->GetDimensions(dims);
-    const bool restart = !self->GetProgressiveAccumulation() || !state.Valid ||
+    // With a denoiser attached, each frame is fresh: the denoiser accumulates over time.
+    const bool restart = !self->GetProgressiveAccumulation() || self->Denoiser || !state.Valid ||
       dims[0] != view.width || dims[1] != view.height || state.View != view.view ||
       state.Projection != view.projection || state.SceneKey != internals->SceneKey ||
       !(state.Settings == settings);
@@ -827,6 +858,8 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
     SetFieldInt(output, "FrameIndex", static_cast<int>(frameIndex));
     SetFieldInt(output, "AccumulatedFrames", frames);
     SetFieldInt(output, "Eye", eyeIndex);
+    SetFieldInt(output, "ClassificationStamp", internals->ClassificationStamp);
+    SetFieldMatrix(output, "VolumeMatrix", internals->VolumeMatrix);
     output->Modified();
   }
   self->InvokeEvent(vtkCommand::EndEvent);
@@ -952,24 +985,37 @@ void vtkPathTracedVolumeMapper::Render(vtkRenderer* renderer, vtkVolume* volume)
   {
     return;
   }
-  vtkNew<vtkMatrix4x4> view;
-  vtkNew<vtkMatrix4x4> projection;
-  view->DeepCopy(camera->GetModelViewTransformMatrix());
-  projection->DeepCopy(camera->GetProjectionTransformMatrix(aspect, -1, 1));
-  const hv::EyeView eyeView = MakeEyeView(view, projection, width, height);
-  const bool lastPassOfFrame =
-    !stereo || displayedEye == 1 || window->GetStereoType() == VTK_STEREO_LEFT;
-  this->RenderEyes(scene, &displayedEye, &eyeView, 1, this->FrameIndex);
-  if (lastPassOfFrame)
+  vtkImageData* image = nullptr;
+  const bool bothEyes = stereo && window->GetStereoType() != VTK_STEREO_LEFT &&
+    window->GetStereoType() != VTK_STEREO_RIGHT;
+  if (this->Denoiser)
   {
-    ++this->FrameIndex;
+    image = this->RenderDenoisedWindowEye(
+      scene, camera, displayedEye, bothEyes, width, height, aspect);
   }
-
-  vtkImageData* image = internals.Eyes[displayedEye].Output;
+  else
+  {
+    vtkNew<vtkMatrix4x4> view;
+    vtkNew<vtkMatrix4x4> projection;
+    view->DeepCopy(camera->GetModelViewTransformMatrix());
+    projection->DeepCopy(camera->GetProjectionTransformMatrix(aspect, -1, 1));
+    const hv::EyeView eyeView = MakeEyeView(view, projection, width, height);
+    const bool lastPassOfFrame = !bothEyes || displayedEye == 1;
+    this->RenderEyes(scene, &displayedEye, &eyeView, 1, this->FrameIndex);
+    if (lastPassOfFrame)
+    {
+      ++this->FrameIndex;
+    }
+    image = internals.Eyes[displayedEye].Output;
+  }
+  if (!image)
+  {
+    return;
+  }
   int dims[3];
   image->GetDimensions(dims);
   internals.DisplayPixels.resize(4 * static_cast<std::size_t>(dims[0]) * dims[1]);
-  if (!this->ToneMapEye(displayedEye, internals.DisplayPixels.data()))
+  if (!this->ToneMapImage(image, internals.DisplayPixels.data()))
   {
     return;
   }
@@ -1019,9 +1065,57 @@ void vtkPathTracedVolumeMapper::Render(vtkRenderer* renderer, vtkVolume* volume)
   internals.Texture->Deactivate();
 }
 
-bool vtkPathTracedVolumeMapper::ToneMapEye(int eye, unsigned char* target)
+// A window frame with the denoiser attached. Mono: render, denoise, show. Stereo: the first
+// pass renders both eyes with the camera's matrices for each (vtkCamera switches eyes by
+// LeftEye) and denoises them together; the second pass shows the other denoised eye unless
+// the camera moved in between.
+vtkImageData* vtkPathTracedVolumeMapper::RenderDenoisedWindowEye(const hv::SceneView& scene,
+  vtkCamera* camera, int displayedEye, bool stereo, int width, int height, double aspect)
 {
-  vtkImageData* image = this->Internals->Eyes[eye].Output;
+  vtkInternals& internals = *this->Internals;
+  auto eyeViewOf = [&](vtkCamera* c)
+  {
+    vtkNew<vtkMatrix4x4> view;
+    vtkNew<vtkMatrix4x4> projection;
+    view->DeepCopy(c->GetModelViewTransformMatrix());
+    projection->DeepCopy(c->GetProjectionTransformMatrix(aspect, -1, 1));
+    return MakeEyeView(view, projection, width, height);
+  };
+  const hv::EyeView current = eyeViewOf(camera);
+  if (!stereo)
+  {
+    this->RenderEyes(scene, &displayedEye, &current, 1, this->FrameIndex++);
+    this->Denoiser->SetInputData(0, internals.Eyes[displayedEye].Output);
+    this->Denoiser->SetInputData(1, nullptr);
+    this->Denoiser->Update();
+    return this->Denoiser->GetEyeOutput(0);
+  }
+  if (displayedEye == 1 && internals.DenoisedRightReady &&
+    internals.DenoisedRightView == current.view &&
+    internals.DenoisedRightProjection == current.projection)
+  {
+    internals.DenoisedRightReady = false;
+    return this->Denoiser->GetEyeOutput(1);
+  }
+  const int leftEye = camera->GetLeftEye();
+  camera->SetLeftEye(displayedEye == 1 ? 1 : 0);
+  const hv::EyeView other = eyeViewOf(camera);
+  camera->SetLeftEye(leftEye);
+  const int eyes[2] = { 0, 1 };
+  const hv::EyeView views[2] = { displayedEye == 0 ? current : other,
+    displayedEye == 0 ? other : current };
+  this->RenderEyes(scene, eyes, views, 2, this->FrameIndex++);
+  this->Denoiser->SetInputData(0, internals.Eyes[0].Output);
+  this->Denoiser->SetInputData(1, internals.Eyes[1].Output);
+  this->Denoiser->Update();
+  internals.DenoisedRightView = views[1].view;
+  internals.DenoisedRightProjection = views[1].projection;
+  internals.DenoisedRightReady = displayedEye == 0;
+  return this->Denoiser->GetEyeOutput(displayedEye);
+}
+
+bool vtkPathTracedVolumeMapper::ToneMapImage(vtkImageData* image, unsigned char* target)
+{
   vtkFloatArray* radiance =
     vtkFloatArray::SafeDownCast(image->GetPointData()->GetArray("Radiance"));
   if (!radiance || radiance->GetNumberOfTuples() == 0)
@@ -1059,7 +1153,7 @@ int vtkPathTracedVolumeMapper::ComputeDisplayImage(int eye, vtkImageData* output
   pixels->SetName("DisplayRGBA");
   pixels->SetNumberOfComponents(4);
   pixels->SetNumberOfTuples(static_cast<vtkIdType>(dims[0]) * dims[1]);
-  if (!this->ToneMapEye(eye, pixels->GetPointer(0)))
+  if (!this->ToneMapImage(this->Internals->Eyes[eye].Output, pixels->GetPointer(0)))
   {
     vtkErrorMacro("Eye " << eye << " has not been rendered yet; render a frame first.");
     return 0;
@@ -1116,4 +1210,5 @@ void vtkPathTracedVolumeMapper::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "Exposure: " << this->Exposure << "\n";
   os << indent << "ToneMapping: " << (this->ToneMapping == TONE_MAPPING_ACES ? "ACES" : "Clamp")
      << "\n";
+  os << indent << "Denoiser: " << static_cast<void*>(this->Denoiser) << "\n";
 }

@@ -48,9 +48,11 @@ struct SceneView;
 #endif
 
 class vtkAlgorithmOutput;
+class vtkCamera;
 class vtkImageData;
 class vtkLightCollection;
 class vtkMatrix4x4;
+class vtkStereoSpatioTemporalDenoiser;
 
 class HOLORENDERINGPATHTRACING_EXPORT vtkPathTracedVolumeMapper : public vtkVolumeMapper
 {
@@ -277,6 +279,19 @@ public:
   void SetToneMappingToACES() { this->SetToneMapping(TONE_MAPPING_ACES); }
   ///@}
 
+  ///@{
+  /**
+   * A denoiser for what the render window shows (optional, none by default). With one, each
+   * window frame is rendered afresh (the denoiser accumulates over time instead of the
+   * mapper), denoised, and the denoised image is displayed; in a stereo window the first eye's
+   * pass renders and denoises both eyes and the second pass shows the other denoised eye.
+   * The off-screen API (RenderStereoFrame, GetEyeOutput) is not affected: connect the eye
+   * images to a vtkStereoSpatioTemporalDenoiser yourself there.
+   */
+  void SetDenoiser(vtkStereoSpatioTemporalDenoiser* denoiser);
+  vtkGetObjectMacro(Denoiser, vtkStereoSpatioTemporalDenoiser);
+  ///@}
+
   /**
    * Renders both eyes off-screen with the given OpenGL-convention view and projection
    * matrices (asymmetric frustums welcome), at width x height pixels each. `lights` may be
@@ -299,7 +314,10 @@ public:
    * "Depth" (float, eye-space distance along the view axis), "Albedo" (float RGB),
    * "Normal" (float xyz, unit gradient direction facing the eye), "GradientMagnitude"
    * (float, normalised to [0, 1]). Field data: "ViewMatrix", "ProjectionMatrix" (16 doubles,
-   * row-major as vtkMatrix4x4), "FrameIndex", "AccumulatedFrames", "Eye".
+   * row-major as vtkMatrix4x4), "FrameIndex", "AccumulatedFrames", "Eye", and
+   * "ClassificationStamp", which changes when the data or the transfer function does (a
+   * denoiser drops its history then), and "VolumeMatrix" (the vtkVolume's matrix, world from
+   * volume, 16 doubles row-major), with which a denoiser follows a moving volume.
    * The images also exist after rendering into a window. Do not modify them.
    */
   vtkImageData* GetEyeOutput(int eye);
@@ -348,6 +366,7 @@ protected:
   int MacrocellSize = 2;
   double Exposure = 0.0;
   int ToneMapping = TONE_MAPPING_ACES;
+  vtkStereoSpatioTemporalDenoiser* Denoiser = nullptr;
 
 private:
   vtkPathTracedVolumeMapper(const vtkPathTracedVolumeMapper&) = delete;
@@ -360,8 +379,10 @@ private:
   bool PrepareScene(vtkVolume* volume, vtkLightCollection* lights, hv::SceneView& scene);
   void RenderEyes(const hv::SceneView& scene, const int* eyeIndices, const hv::EyeView* views,
     int eyeCount, vtkTypeUInt32 frameIndex);
+  vtkImageData* RenderDenoisedWindowEye(const hv::SceneView& scene, vtkCamera* camera,
+    int displayedEye, bool stereo, int width, int height, double aspect);
 #endif
-  bool ToneMapEye(int eye, unsigned char* target);
+  bool ToneMapImage(vtkImageData* image, unsigned char* target);
 };
 
 #endif

@@ -11,6 +11,7 @@ import vtkmodules.vtkCommonExecutionModel  # noqa: F401
 import vtkmodules.vtkRenderingCore  # noqa: F401
 import vtkmodules.vtkRenderingVolume  # noqa: F401
 
+from .holoImagingDenoise import vtkStereoSpatioTemporalDenoiser  # noqa: F401
 from .holoRenderingPathTracing import vtkPathTracedVolumeMapper  # noqa: F401
 from .holoIOEnvironment import vtkEnvironmentMapReader  # noqa: F401
 from .holoLighting import (  # noqa: F401
@@ -21,6 +22,7 @@ from .holoLighting import (  # noqa: F401
 
 __all__ = [
     "vtkPathTracedVolumeMapper",
+    "vtkStereoSpatioTemporalDenoiser",
     "vtkEnvironmentMapReader",
     "vtkPanoramaVideoSource",
     "vtkDualFisheyeToEquirectangular",

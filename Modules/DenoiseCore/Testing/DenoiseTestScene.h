@@ -1,0 +1,180 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+//
+// An analytic stereo scene for the denoiser's tests: a finite wall with a checker albedo and
+// smoothly varying irradiance, and a small floating square in front of it that can move.
+// Each frame gives exact auxiliary buffers, the noise-free radiance, and a 2-sample Monte-
+// Carlo-like estimate (radiance x the mean of two unit exponential variates: unbiased, with
+// the relative variance 1/2 of a 2 spp path-traced pixel of a diffuse surface).
+#ifndef hv_DenoiseTestScene_h
+#define hv_DenoiseTestScene_h
+
+#include "hv/denoise/StereoDenoiser.h"
+
+#include <glm/gtc/matrix_transform.hpp>
+
+#include <cmath>
+#include <cstdint>
+#include <random>
+#include <vector>
+
+namespace hvtest
+{
+struct EyeBuffers
+{
+  int width = 0;
+  int height = 0;
+  std::vector<float> radiance, reference, position, depth, albedo, normal, gradient;
+  std::vector<unsigned char> valid;
+  glm::mat4 view{ 1.0f }, projection{ 1.0f };
+
+  hv::denoise::EyeFrame frame() const
+  {
+    hv::denoise::EyeFrame f;
+    f.width = this->width;
+    f.height = this->height;
+    f.radiance = this->radiance.data();
+    f.firstScatterPosition = this->position.data();
+    f.firstScatterValid = this->valid.data();
+    f.depth = this->depth.data();
+    f.albedo = this->albedo.data();
+    f.normal = this->normal.data();
+    f.gradientMagnitude = this->gradient.data();
+    f.view = this->view;
+    f.projection = this->projection;
+    return f;
+  }
+};
+
+struct SceneState
+{
+  glm::vec3 squareCentre{ 0.0f, 0.0f, 1.5f }; // the floating square, 1.6 wide, facing +z
+  float irradianceScale = 1.0f;                // the lighting: scales every radiance
+  glm::vec3 cameraPosition{ 0.0f, 0.0f, 8.0f }; // between the eyes, looking at -z
+  float interpupillaryDistance = 0.3f;
+  float focalDistance = 8.0f;
+};
+
+// Eye 0 = left, 1 = right: parallel axes, off-axis frusta converging at the focal distance.
+inline void eyeMatrices(const SceneState& scene, int eye, float aspect, glm::mat4& view,
+  glm::mat4& projection)
+{
+  const float offset = (eye == 0 ? -0.5f : 0.5f) * scene.interpupillaryDistance;
+  const glm::vec3 position = scene.cameraPosition + glm::vec3(offset, 0.0f, 0.0f);
+  view = glm::lookAt(position, position + glm::vec3(0.0f, 0.0f, -1.0f), glm::vec3(0, 1, 0));
+  const float nearPlane = 1.0f, farPlane = 30.0f;
+  const float top = nearPlane * std::tan(glm::radians(20.0f));
+  const float right = top * aspect;
+  const float shift = -offset * nearPlane / scene.focalDistance;
+  projection = glm::frustum(-right + shift, right + shift, -top, top, nearPlane, farPlane);
+}
+
+// Renders one eye: ray casting through pixel centres, exact buffers, noisy radiance.
+inline void renderEye(const SceneState& scene, int eye, int width, int height,
+  std::uint32_t seed, EyeBuffers& out)
+{
+  const std::size_t n = static_cast<std::size_t>(width) * height;
+  out.width = width;
+  out.height = height;
+  out.radiance.assign(4 * n, 0.0f);
+  out.reference.assign(4 * n, 0.0f);
+  out.position.assign(3 * n, 0.0f);
+  out.depth.assign(n, 0.0f);
+  out.albedo.assign(3 * n, 0.0f);
+  out.normal.assign(3 * n, 0.0f);
+  out.gradient.assign(n, 0.0f);
+  out.valid.assign(n, 0);
+  eyeMatrices(scene, eye, static_cast<float>(width) / height, out.view, out.projection);
+  const glm::mat4 inverse = glm::inverse(out.projection * out.view);
+  std::mt19937 rng(seed * 2654435761u + static_cast<std::uint32_t>(eye) * 97u + 1u);
+  std::exponential_distribution<float> exponential(1.0f);
+  for (int y = 0; y < height; ++y)
+  {
+    for (int x = 0; x < width; ++x)
+    {
+      const std::size_t i = static_cast<std::size_t>(y) * width + x;
+      const float ndcX = 2.0f * (x + 0.5f) / width - 1.0f;
+      const float ndcY = 2.0f * (y + 0.5f) / height - 1.0f;
+      glm::vec4 a = inverse * glm::vec4(ndcX, ndcY, -1.0f, 1.0f);
+      glm::vec4 b = inverse * glm::vec4(ndcX, ndcY, 1.0f, 1.0f);
+      const glm::vec3 origin = glm::vec3(a) / a.w;
+      const glm::vec3 direction = glm::normalize(glm::vec3(b) / b.w - origin);
+      const float noise = 0.5f * (exponential(rng) + exponential(rng));
+      // Square first (it is in front), then the wall at z = 0.
+      glm::vec3 hit, albedo, radiance;
+      bool found = false;
+      {
+        const float t = (scene.squareCentre.z - origin.z) / direction.z;
+        const glm::vec3 p = origin + t * direction;
+        if (t > 0.0f && std::abs(p.x - scene.squareCentre.x) < 0.8f &&
+          std::abs(p.y - scene.squareCentre.y) < 0.8f)
+        {
+          hit = p;
+          albedo = glm::vec3(0.15f, 0.55f, 0.9f);
+          radiance = albedo * 1.2f;
+          found = true;
+        }
+      }
+      if (!found)
+      {
+        const float t = -origin.z / direction.z;
+        const glm::vec3 p = origin + t * direction;
+        if (t > 0.0f && std::abs(p.x) < 3.0f && std::abs(p.y) < 2.0f)
+        {
+          hit = p;
+          const bool dark =
+            (static_cast<int>(std::floor(p.x / 0.5f)) + static_cast<int>(std::floor(p.y / 0.5f))) & 1;
+          albedo = dark ? glm::vec3(0.3f, 0.25f, 0.2f) : glm::vec3(0.85f, 0.8f, 0.7f);
+          const float irradiance = 1.0f + 0.5f * std::sin(1.3f * p.x) * std::cos(0.9f * p.y);
+          radiance = albedo * irradiance;
+          found = true;
+        }
+      }
+      if (!found)
+      {
+        continue;
+      }
+      radiance *= scene.irradianceScale;
+      out.valid[i] = 1;
+      for (int c = 0; c < 3; ++c)
+      {
+        out.position[3 * i + c] = hit[c];
+        out.albedo[3 * i + c] = albedo[c];
+        out.reference[4 * i + c] = radiance[c];
+        out.radiance[4 * i + c] = radiance[c] * noise;
+      }
+      out.reference[4 * i + 3] = 1.0f;
+      out.radiance[4 * i + 3] = 1.0f;
+      out.normal[3 * i + 2] = 1.0f;
+      out.gradient[i] = 1.0f;
+      out.depth[i] = -(out.view * glm::vec4(hit, 1.0f)).z;
+    }
+  }
+}
+
+// PSNR (dB) of RGB against the reference over pixels where the reference sees the scene,
+// with the peak set to the reference's maximum.
+inline double psnr(const std::vector<float>& image, const EyeBuffers& eye)
+{
+  double squared = 0.0, peak = 0.0;
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < eye.valid.size(); ++i)
+  {
+    if (!eye.valid[i])
+    {
+      continue;
+    }
+    for (int c = 0; c < 3; ++c)
+    {
+      const double d = image[4 * i + c] - eye.reference[4 * i + c];
+      squared += d * d;
+      peak = std::max(peak, static_cast<double>(eye.reference[4 * i + c]));
+    }
+    count += 3;
+  }
+  const double mse = squared / static_cast<double>(count);
+  return 10.0 * std::log10(peak * peak / mse);
+}
+}
+
+#endif

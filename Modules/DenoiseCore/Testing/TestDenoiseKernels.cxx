@@ -1,0 +1,236 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+//
+// The denoiser's per-pixel functions: reprojection geometry (Eq. 2), D2's lambda, w_v's
+// sigmoid, the bilateral weight and the disocclusion test.
+#include "DenoiseTestScene.h"
+#include "hv/denoise/DenoiseKernels.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+using namespace hv::denoise;
+
+namespace
+{
+glm::vec2 expectProject(const glm::mat4& view, const glm::mat4& projection, int width, int height,
+  const glm::vec3& world, float* depthOut = nullptr)
+{
+  glm::vec2 pixel(-1.0f);
+  float depth = 0.0f;
+  EXPECT_TRUE(projectToPixel(projection * view, view, width, height, world, pixel, depth));
+  if (depthOut)
+  {
+    *depthOut = depth;
+  }
+  return pixel;
+}
+}
+
+// A known camera motion: translating the camera by +1 along x moves a point 5 units ahead to
+// the pixel the pinhole model predicts, and its view depth stays 5.
+TEST(DenoiseKernels, ReprojectionFollowsCameraTranslation)
+{
+  const int width = 200, height = 100;
+  const float aspect = 2.0f, fovY = glm::radians(60.0f);
+  const glm::mat4 projection = glm::perspective(fovY, aspect, 0.1f, 100.0f);
+  const glm::mat4 before = glm::lookAt(glm::vec3(0, 0, 5), glm::vec3(0, 0, 0), glm::vec3(0, 1, 0));
+  const glm::mat4 after = glm::lookAt(glm::vec3(1, 0, 5), glm::vec3(1, 0, 0), glm::vec3(0, 1, 0));
+  const glm::vec3 point(0.0f, 0.0f, 0.0f);
+  float depth;
+  const glm::vec2 p0 = expectProject(before, projection, width, height, point, &depth);
+  EXPECT_NEAR(p0.x, 100.0f, 1e-3f);
+  EXPECT_NEAR(p0.y, 50.0f, 1e-3f);
+  EXPECT_NEAR(depth, 5.0f, 1e-4f);
+  const glm::vec2 p1 = expectProject(after, projection, width, height, point, &depth);
+  const float ndcX = (-1.0f / 5.0f) / (std::tan(0.5f * fovY) * aspect);
+  EXPECT_NEAR(p1.x, 0.5f * (ndcX + 1.0f) * width, 1e-3f);
+  EXPECT_NEAR(p1.y, 50.0f, 1e-3f);
+  EXPECT_NEAR(depth, 5.0f, 1e-4f);
+
+  // Behind the camera or off-screen: no pixel.
+  glm::vec2 pixel;
+  EXPECT_FALSE(projectToPixel(projection * before, before, width, height, glm::vec3(0, 0, 6), pixel, depth));
+  EXPECT_FALSE(projectToPixel(projection * before, before, width, height, glm::vec3(20, 0, 0), pixel, depth));
+}
+
+// Left <-> right: with parallel eyes and off-axis frusta converging at distance D, a point on
+// the focal plane has zero disparity, and a point at depth z has the disparity
+// 0.5 W ipd (1/z - 1/D) / (tan(theta) aspect). Eq. 2's chain L(t) -> R(t) through the first
+// scatter point lands on the same pixel as projecting the point into R directly.
+TEST(DenoiseKernels, StereoReprojectionDisparity)
+{
+  hvtest::SceneState scene;
+  const int width = 240, height = 160;
+  const float aspect = static_cast<float>(width) / height;
+  glm::mat4 leftView, leftProjection, rightView, rightProjection;
+  hvtest::eyeMatrices(scene, 0, aspect, leftView, leftProjection);
+  hvtest::eyeMatrices(scene, 1, aspect, rightView, rightProjection);
+  const float tanHalf = std::tan(glm::radians(20.0f));
+  for (float z : { 0.0f, 1.5f, 4.0f })
+  {
+    const glm::vec3 point(0.2f, -0.3f, z);
+    float leftDepth, rightDepth;
+    const glm::vec2 left = expectProject(leftView, leftProjection, width, height, point, &leftDepth);
+    const glm::vec2 right =
+      expectProject(rightView, rightProjection, width, height, point, &rightDepth);
+    const float distance = scene.cameraPosition.z - z;
+    EXPECT_NEAR(leftDepth, distance, 1e-4f);
+    EXPECT_NEAR(rightDepth, distance, 1e-4f);
+    const float expected = 0.5f * width * scene.interpupillaryDistance *
+      (1.0f / distance - 1.0f / scene.focalDistance) / (tanHalf * aspect);
+    EXPECT_NEAR(left.x - right.x, expected, 2e-3f) << "z = " << z;
+    EXPECT_NEAR(left.y, right.y, 1e-3f);
+  }
+  // The focal plane (z = 0 here) has zero parallax.
+  const glm::vec2 a = expectProject(leftView, leftProjection, width, height, glm::vec3(0.5f, 0.1f, 0.0f));
+  const glm::vec2 b = expectProject(rightView, rightProjection, width, height, glm::vec3(0.5f, 0.1f, 0.0f));
+  EXPECT_NEAR(a.x, b.x, 1e-3f);
+
+  // Through the rendered buffers: the first scatter point stored at a left pixel projects into
+  // the right eye onto the pixel whose own first scatter point is the same surface point.
+  hvtest::EyeBuffers left, right;
+  hvtest::renderEye(scene, 0, width, height, 1, left);
+  hvtest::renderEye(scene, 1, width, height, 1, right);
+  int checked = 0;
+  for (int y = 10; y < height; y += 23)
+  {
+    for (int x = 10; x < width; x += 29)
+    {
+      const std::size_t i = static_cast<std::size_t>(y) * width + x;
+      if (!left.valid[i])
+      {
+        continue;
+      }
+      const glm::vec3 x0(left.position[3 * i], left.position[3 * i + 1], left.position[3 * i + 2]);
+      glm::vec2 pixel;
+      float depth;
+      if (!projectToPixel(rightProjection * rightView, rightView, width, height, x0, pixel, depth))
+      {
+        continue;
+      }
+      const std::size_t q = static_cast<std::size_t>(pixel.y) * width + static_cast<std::size_t>(pixel.x);
+      if (!right.valid[q])
+      {
+        continue;
+      }
+      const glm::vec3 x1(right.position[3 * q], right.position[3 * q + 1], right.position[3 * q + 2]);
+      // Same surface: within a pixel footprint (about 0.03 world units at this distance).
+      if (std::abs(right.depth[q] - depth) < 0.01f * depth)
+      {
+        EXPECT_LT(glm::length(x1 - x0), 0.08f);
+        ++checked;
+      }
+    }
+  }
+  EXPECT_GT(checked, 20);
+}
+
+// D2's lambda = alpha (beta - exp(-|gamma_L - gamma_R|)): 0.5 for equal albedo, growing with
+// the difference towards 1, never outside [0, 1].
+TEST(DenoiseKernels, StereoBlendWeight)
+{
+  const glm::vec3 albedo(0.4f, 0.5f, 0.6f);
+  EXPECT_NEAR(stereoBlendWeight(albedo, albedo, 0.5f, 2.0f), 0.5f, 1e-6f);
+  float previous = 0.5f;
+  for (float d : { 0.05f, 0.2f, 0.5f, 1.0f, 3.0f, 10.0f, 30.0f })
+  {
+    const float lambda = stereoBlendWeight(albedo, albedo + glm::vec3(d, 0.0f, 0.0f), 0.5f, 2.0f);
+    EXPECT_GT(lambda, previous) << d;
+    previous = lambda;
+  }
+  EXPECT_GT(previous, 0.9999f);
+  EXPECT_NEAR(stereoBlendWeight(glm::vec3(0.0f), glm::vec3(1.0f), 0.5f, 2.0f),
+    0.5f * (2.0f - std::exp(-std::sqrt(3.0f))), 1e-6f);
+  // Other alpha, beta are clamped rather than extrapolated.
+  EXPECT_EQ(stereoBlendWeight(albedo, albedo + glm::vec3(5.0f), 1.0f, 2.0f), 1.0f);
+  EXPECT_EQ(stereoBlendWeight(albedo, albedo, 0.5f, 0.5f), 0.0f);
+}
+
+// w_v's sigmoid delta(1 / (T - 1)) falls with T; T = 0 and T -> 1 are finite, NaN drops the
+// history, and the plain logistic gives the textbook value at T = 0.
+TEST(DenoiseKernels, TemporalWeightDecreasesWithIlluminationDifference)
+{
+  float previous = 2.0f;
+  for (int i = 0; i <= 1000; ++i)
+  {
+    const float t = static_cast<float>(i) / 1000.0f;
+    const float gate = temporalGate(t, 20.0f, -1.25f);
+    EXPECT_TRUE(std::isfinite(gate));
+    EXPECT_GE(gate, 0.0f);
+    EXPECT_LE(gate, 1.0f);
+    EXPECT_LE(gate, previous) << "T = " << t;
+    previous = gate;
+  }
+  EXPECT_GT(temporalGate(0.0f, 20.0f, -1.25f), 0.99f);
+  EXPECT_GT(temporalGate(0.014f, 20.0f, -1.25f), 0.95f); // sensor noise (issue 3's measurement)
+  EXPECT_LT(temporalGate(0.65f, 20.0f, -1.25f), 1e-3f);  // a lamp switched on
+  EXPECT_EQ(temporalGate(1.0f, 20.0f, -1.25f), 0.0f);
+  EXPECT_EQ(temporalGate(0.9999999f, 20.0f, -1.25f), 0.0f);
+  EXPECT_EQ(temporalGate(std::numeric_limits<float>::quiet_NaN(), 20.0f, -1.25f), 0.0f);
+  EXPECT_EQ(temporalGate(-0.5f, 20.0f, -1.25f), temporalGate(0.0f, 20.0f, -1.25f));
+  EXPECT_NEAR(temporalGate(0.0f, 1.0f, 0.0f), 1.0f / (1.0f + std::exp(1.0f)), 1e-6f);
+  EXPECT_LT(temporalGate(0.5f, 1.0f, 0.0f), temporalGate(0.0f, 1.0f, 0.0f));
+}
+
+TEST(DenoiseKernels, BilateralWeightAndDisocclusion)
+{
+  EdgeStopping edges;
+  Surface a;
+  a.kind = SurfaceOwn;
+  a.depth = 5.0f;
+  a.normal = glm::vec3(0, 0, 1);
+  a.gradientMagnitude = 1.0f;
+  a.albedo = glm::vec3(0.5f);
+  EXPECT_NEAR(bilateralWeight(a, a, edges), 1.0f, 1e-6f);
+  Surface farther = a;
+  farther.depth = 5.5f;
+  EXPECT_NEAR(bilateralWeight(a, farther, edges), std::exp(-0.5f / (0.02f * 5.0f)), 1e-6f);
+  Surface turned = a;
+  turned.normal = glm::vec3(0, 1, 0);
+  EXPECT_NEAR(bilateralWeight(a, turned, edges), std::exp(-edges.normalSharpness), 1e-6f);
+  // Inside homogeneous material the gradient direction is noise: no normal penalty.
+  turned.gradientMagnitude = 0.0f;
+  EXPECT_NEAR(bilateralWeight(a, turned, edges), 1.0f, 1e-6f);
+  Surface tinted = a;
+  tinted.albedo = glm::vec3(0.5f, 0.7f, 0.5f);
+  EXPECT_NEAR(bilateralWeight(a, tinted, edges), std::exp(-0.04f / 0.02f), 1e-5f);
+
+  // Disocclusion: an occluder 10 % nearer, a background pixel, or a turned surface.
+  EXPECT_TRUE(consistentSurface(a, 5.05f, a.normal, 1.0f, 0.0f, 0.03f, 0.5f));
+  EXPECT_FALSE(consistentSurface(a, 5.5f, a.normal, 1.0f, 0.0f, 0.03f, 0.5f));
+  Surface none;
+  EXPECT_FALSE(consistentSurface(none, 5.0f, a.normal, 1.0f, 0.0f, 0.03f, 0.5f));
+  EXPECT_FALSE(consistentSurface(a, 5.0f, glm::vec3(0, 1, 0), 1.0f, 0.0f, 0.03f, 0.5f));
+  EXPECT_TRUE(consistentSurface(a, 5.0f, glm::vec3(0, 1, 0), 0.0f, 0.0f, 0.03f, 0.5f));
+  // Inside translucent material (no gradient) the first scatter depth is random: a depth
+  // spread of 0.3 on both sides accepts the 0.5 difference, a spread on one side only does not.
+  Surface translucent = a;
+  translucent.depthSpread = 0.3f;
+  translucent.gradientMagnitude = 0.0f;
+  EXPECT_TRUE(consistentSurface(translucent, 5.5f, a.normal, 0.0f, 0.3f, 0.03f, 0.5f));
+  EXPECT_FALSE(consistentSurface(translucent, 5.5f, a.normal, 0.0f, 0.0f, 0.03f, 0.5f));
+  // On a surface (strong gradient) the spread is geometry, a silhouette: no slack.
+  EXPECT_FALSE(consistentSurface(translucent, 5.5f, a.normal, 1.0f, 0.3f, 0.03f, 0.5f));
+}
+
+TEST(DenoiseKernels, DemodulationRoundTripAndClamp)
+{
+  const glm::vec4 radiance(0.3f, 0.2f, 0.0f, 0.8f);
+  const glm::vec3 albedo(0.6f, 0.4f, 0.0f);
+  const glm::vec4 signal = demodulate(radiance, albedo);
+  EXPECT_NEAR(signal.x, 0.5f, 1e-6f);
+  EXPECT_NEAR(signal.y, 0.5f, 1e-6f);
+  EXPECT_EQ(signal.z, 0.0f); // no albedo: kept as is
+  EXPECT_EQ(signal.w, 0.8f); // coverage is not an albedo-weighted quantity
+  const glm::vec4 back = remodulate(signal, albedo);
+  for (int c = 0; c < 4; ++c)
+  {
+    EXPECT_NEAR(back[c], radiance[c], 1e-6f);
+  }
+  const glm::vec4 clamped =
+    clampToNeighbourhood(glm::vec4(5.0f, 0.0f, 1.0f, 1.0f), glm::vec4(1.0f), glm::vec4(0.5f), 2.0f);
+  EXPECT_EQ(clamped, glm::vec4(2.0f, 0.0f, 1.0f, 1.0f));
+}

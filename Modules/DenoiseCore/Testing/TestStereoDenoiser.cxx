@@ -1,0 +1,372 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+//
+// The whole denoiser on the analytic stereo scene of DenoiseTestScene.h: convergence of a
+// static view, no ghost where a moving object uncovers the wall, the reaction to T, D2's
+// effect on the inter-eye discrepancy, thread-count independence and bad input.
+#include "DenoiseTestScene.h"
+#include "hv/denoise/StereoDenoiser.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <thread>
+
+using namespace hv::denoise;
+
+namespace
+{
+constexpr int Width = 160;
+constexpr int Height = 104;
+
+struct StereoFrame
+{
+  hvtest::EyeBuffers eyes[2];
+  std::vector<float> outputs[2];
+
+  void render(const hvtest::SceneState& scene, std::uint32_t frame)
+  {
+    for (int e = 0; e < 2; ++e)
+    {
+      hvtest::renderEye(scene, e, Width, Height, frame, this->eyes[e]);
+      this->outputs[e].assign(this->eyes[e].radiance.size(), 0.0f);
+    }
+  }
+
+  bool denoise(StereoDenoiser& denoiser, float illuminationDifference = 0.0f)
+  {
+    const EyeFrame frames[2] = { this->eyes[0].frame(), this->eyes[1].frame() };
+    float* out[2] = { this->outputs[0].data(), this->outputs[1].data() };
+    std::string error;
+    const bool ok = denoiser.denoise(frames, 2, illuminationDifference, out, error);
+    EXPECT_TRUE(ok) << error;
+    return ok;
+  }
+};
+
+// Root-mean-square difference, over left pixels whose first scatter point the right eye also
+// sees, of the two eyes' errors against their references: the inter-eye noise discrepancy
+// that D2 targets.
+double interEyeDiscrepancy(const StereoFrame& f)
+{
+  const hvtest::EyeBuffers& left = f.eyes[0];
+  const hvtest::EyeBuffers& right = f.eyes[1];
+  const glm::mat4 rightViewProjection = right.projection * right.view;
+  double squared = 0.0;
+  std::size_t count = 0;
+  for (std::size_t i = 0; i < left.valid.size(); ++i)
+  {
+    if (!left.valid[i])
+    {
+      continue;
+    }
+    const glm::vec3 x(left.position[3 * i], left.position[3 * i + 1], left.position[3 * i + 2]);
+    glm::vec2 pixel;
+    float depth;
+    if (!projectToPixel(rightViewProjection, right.view, Width, Height, x, pixel, depth))
+    {
+      continue;
+    }
+    const std::size_t q = static_cast<std::size_t>(pixel.y) * Width + static_cast<std::size_t>(pixel.x);
+    if (!right.valid[q] || std::abs(right.depth[q] - depth) > 0.01f * depth)
+    {
+      continue;
+    }
+    for (int c = 0; c < 3; ++c)
+    {
+      const double errorLeft = f.outputs[0][4 * i + c] - left.reference[4 * i + c];
+      const double errorRight = f.outputs[1][4 * q + c] - right.reference[4 * q + c];
+      squared += (errorLeft - errorRight) * (errorLeft - errorRight);
+      ++count;
+    }
+  }
+  return std::sqrt(squared / static_cast<double>(count));
+}
+
+double meanPSNR(const StereoFrame& f)
+{
+  return 0.5 * (hvtest::psnr(f.outputs[0], f.eyes[0]) + hvtest::psnr(f.outputs[1], f.eyes[1]));
+}
+
+double rawPSNR(const StereoFrame& f)
+{
+  return 0.5 *
+    (hvtest::psnr(f.eyes[0].radiance, f.eyes[0]) + hvtest::psnr(f.eyes[1].radiance, f.eyes[1]));
+}
+}
+
+// A static view converges: the first frame (spatial and stereo only) already gains several dB
+// over the raw 2-sample frame, and 16 frames gain much more, with the history at its length.
+TEST(StereoDenoiser, StaticViewConverges)
+{
+  hvtest::SceneState scene;
+  StereoDenoiser denoiser;
+  StereoFrame frame;
+  double firstGain = 0.0, lastGain = 0.0;
+  for (std::uint32_t t = 0; t < 16; ++t)
+  {
+    frame.render(scene, t);
+    ASSERT_TRUE(frame.denoise(denoiser));
+    const double gain = meanPSNR(frame) - rawPSNR(frame);
+    if (t == 0)
+    {
+      firstGain = gain;
+    }
+    lastGain = gain;
+  }
+  std::cout << "raw " << rawPSNR(frame) << " dB, first-frame gain " << firstGain
+            << " dB, 16-frame gain " << lastGain << " dB\n";
+  EXPECT_GT(firstGain, 6.0);
+  EXPECT_GT(lastGain, 15.0);
+  EXPECT_GT(lastGain, firstGain + 5.0);
+  EXPECT_GE(denoiser.historyLength(0, Width / 2, Height / 2), 15.0f);
+  EXPECT_LT(denoiser.statistics().disoccludedFraction[0], 0.02);
+  denoiser.reset();
+  EXPECT_EQ(denoiser.historyLength(0, Width / 2, Height / 2), 0.0f);
+}
+
+// The square jumps to the right: wall pixels it uncovered must show the wall, not the
+// square's colour (no ghost), and they must count as disoccluded.
+TEST(StereoDenoiser, NoGhostInDisoccludedPixels)
+{
+  hvtest::SceneState scene;
+  StereoDenoiser denoiser;
+  StereoFrame frame;
+  for (std::uint32_t t = 0; t < 12; ++t)
+  {
+    frame.render(scene, t);
+    ASSERT_TRUE(frame.denoise(denoiser));
+  }
+  // Where the square was, in the left eye, before it moves.
+  std::vector<unsigned char> wasSquare(frame.eyes[0].valid.size());
+  for (std::size_t i = 0; i < wasSquare.size(); ++i)
+  {
+    wasSquare[i] = frame.eyes[0].valid[i] && frame.eyes[0].position[3 * i + 2] > 1.0f;
+  }
+  scene.squareCentre.x += 1.7f; // more than its width: every pixel it covered is uncovered
+  frame.render(scene, 12);
+  ASSERT_TRUE(frame.denoise(denoiser));
+  const hvtest::EyeBuffers& left = frame.eyes[0];
+  double error = 0.0, ghost = 0.0;
+  std::size_t count = 0;
+  const glm::vec3 squareRadiance = glm::vec3(0.15f, 0.55f, 0.9f) * 1.2f;
+  for (std::size_t i = 0; i < wasSquare.size(); ++i)
+  {
+    if (!wasSquare[i] || left.position[3 * i + 2] > 1.0f)
+    {
+      continue;
+    }
+    for (int c = 0; c < 3; ++c)
+    {
+      error += std::abs(frame.outputs[0][4 * i + c] - left.reference[4 * i + c]);
+      ghost += std::abs(squareRadiance[c] - left.reference[4 * i + c]);
+    }
+    ++count;
+  }
+  ASSERT_GT(count, 300u);
+  std::cout << "disoccluded pixels " << count << ": mean error " << error / (3 * count)
+            << " against a ghost's " << ghost / (3 * count) << "\n";
+  EXPECT_LT(error, 0.25 * ghost);
+  EXPECT_GT(denoiser.statistics().disoccludedFraction[0], 0.05);
+}
+
+// The lighting triples at frame 10. Told by T = 0.65, the denoiser drops the history and the
+// frame shows the new light; told T = 0 and without clamping, the old light lingers.
+TEST(StereoDenoiser, IlluminationChangeDropsHistory)
+{
+  auto errorAfterSwitch = [](float illuminationDifference, float clampWidth)
+  {
+    hvtest::SceneState scene;
+    StereoDenoiser denoiser;
+    denoiser.parameters().clampWidth = clampWidth;
+    StereoFrame frame;
+    for (std::uint32_t t = 0; t < 10; ++t)
+    {
+      frame.render(scene, t);
+      frame.denoise(denoiser, 0.01f);
+    }
+    scene.irradianceScale = 3.0f;
+    frame.render(scene, 10);
+    frame.denoise(denoiser, illuminationDifference);
+    double relative = 0.0;
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < frame.eyes[0].valid.size(); ++i)
+    {
+      if (frame.eyes[0].valid[i])
+      {
+        const float reference = frame.eyes[0].reference[4 * i + 1];
+        relative += std::abs(frame.outputs[0][4 * i + 1] - reference) / reference;
+        ++count;
+      }
+    }
+    return relative / static_cast<double>(count);
+  };
+  const double signalled = errorAfterSwitch(0.65f, 0.0f);
+  const double unsignalled = errorAfterSwitch(0.0f, 0.0f);
+  const double clamped = errorAfterSwitch(0.0f, 2.0f);
+  std::cout << "mean relative error after the switch: T = 0.65 " << signalled
+            << ", T = 0 unclamped " << unsignalled << ", T = 0 clamped " << clamped << "\n";
+  EXPECT_LT(signalled, 0.2);
+  EXPECT_GT(unsignalled, 0.45); // the history (weight ~ 30 frames) keeps about 2/3 of the old light
+  EXPECT_LT(clamped, unsignalled);
+}
+
+// D2 blends the eyes' D1 results: their errors at corresponding pixels agree far better.
+TEST(StereoDenoiser, StereoBlendReducesInterEyeDiscrepancy)
+{
+  auto discrepancy = [](bool stereoBlend)
+  {
+    hvtest::SceneState scene;
+    StereoDenoiser denoiser;
+    denoiser.parameters().stereoBlend = stereoBlend;
+    StereoFrame frame;
+    double sum = 0.0;
+    for (std::uint32_t t = 0; t < 6; ++t)
+    {
+      frame.render(scene, t);
+      frame.denoise(denoiser);
+      sum += interEyeDiscrepancy(frame);
+    }
+    return sum / 6.0;
+  };
+  const double d1 = discrepancy(false);
+  const double full = discrepancy(true);
+  std::cout << "inter-eye discrepancy: D1 " << d1 << ", D1+D2 " << full << "\n";
+  EXPECT_GT(d1 / full, 3.0);
+}
+
+// Every pass is per pixel: one thread or several, the same bits.
+TEST(StereoDenoiser, DeterministicAcrossThreadCounts)
+{
+  auto run = [](int threads)
+  {
+    StereoDenoiser denoiser;
+    if (threads > 1)
+    {
+      denoiser.setParallelFor(
+        [threads](std::int64_t count, const std::function<void(std::int64_t, std::int64_t)>& body)
+        {
+          std::vector<std::thread> pool;
+          for (int t = 0; t < threads; ++t)
+          {
+            pool.emplace_back(body, count * t / threads, count * (t + 1) / threads);
+          }
+          for (auto& thread : pool)
+          {
+            thread.join();
+          }
+        });
+    }
+    hvtest::SceneState scene;
+    StereoFrame frame;
+    for (std::uint32_t t = 0; t < 4; ++t)
+    {
+      scene.cameraPosition.x = 0.05f * t;
+      frame.render(scene, t);
+      frame.denoise(denoiser);
+    }
+    return frame.outputs[0];
+  };
+  const std::vector<float> serial = run(1);
+  const std::vector<float> threaded = run(3);
+  ASSERT_EQ(serial.size(), threaded.size());
+  EXPECT_TRUE(std::equal(serial.begin(), serial.end(), threaded.begin()));
+}
+
+TEST(StereoDenoiser, MonoFrame)
+{
+  hvtest::SceneState scene;
+  StereoDenoiser denoiser;
+  hvtest::EyeBuffers eye;
+  std::vector<float> output;
+  double gain = 0.0;
+  for (std::uint32_t t = 0; t < 4; ++t)
+  {
+    hvtest::renderEye(scene, 0, Width, Height, t, eye);
+    output.assign(eye.radiance.size(), 0.0f);
+    const EyeFrame frame = eye.frame();
+    float* out[1] = { output.data() };
+    std::string error;
+    ASSERT_TRUE(denoiser.denoise(&frame, 1, 0.0f, out, error)) << error;
+    gain = hvtest::psnr(output, eye) - hvtest::psnr(eye.radiance, eye);
+  }
+  EXPECT_GT(gain, 8.0);
+}
+
+// Bad input: a clear message, no crash, and the history untouched (the next good frame gives
+// what it would have given without the bad one).
+TEST(StereoDenoiser, BadInputIsRefused)
+{
+  hvtest::SceneState scene;
+  StereoDenoiser denoiser, reference;
+  StereoFrame frame;
+  for (std::uint32_t t = 0; t < 3; ++t)
+  {
+    frame.render(scene, t);
+    frame.denoise(denoiser);
+    frame.denoise(reference);
+  }
+  std::string error;
+  float* out[2] = { frame.outputs[0].data(), frame.outputs[1].data() };
+
+  EyeFrame frames[2] = { frame.eyes[0].frame(), frame.eyes[1].frame() };
+  frames[1].width = Width / 2;
+  EXPECT_FALSE(denoiser.denoise(frames, 2, 0.0f, out, error));
+  EXPECT_NE(error.find("differ in size"), std::string::npos) << error;
+
+  frames[1] = frame.eyes[1].frame();
+  frames[1].albedo = nullptr;
+  EXPECT_FALSE(denoiser.denoise(frames, 2, 0.0f, out, error));
+  EXPECT_NE(error.find("\"Albedo\""), std::string::npos) << error;
+
+  hvtest::EyeBuffers poisoned = frame.eyes[0];
+  poisoned.radiance[4 * (Width * Height / 2 + Width / 2)] = std::numeric_limits<float>::quiet_NaN();
+  poisoned.radiance[5] = std::numeric_limits<float>::infinity();
+  frames[0] = poisoned.frame();
+  frames[1] = frame.eyes[1].frame();
+  EXPECT_FALSE(denoiser.denoise(frames, 2, 0.0f, out, error));
+  EXPECT_NE(error.find("2 NaN or infinite"), std::string::npos) << error;
+
+  EXPECT_FALSE(denoiser.denoise(frames, 3, 0.0f, out, error));
+  EXPECT_FALSE(denoiser.denoise(nullptr, 2, 0.0f, out, error));
+
+  frame.render(scene, 3);
+  StereoFrame copy = frame;
+  frame.denoise(denoiser);
+  copy.denoise(reference);
+  EXPECT_EQ(frame.outputs[0], copy.outputs[0]);
+  EXPECT_EQ(frame.outputs[1], copy.outputs[1]);
+}
+
+// Denoising the last frame again (after a parameter change) starts from the history that
+// frame started with: the same result as a denoiser that saw the frame once.
+TEST(StereoDenoiser, ReplaceLastFrame)
+{
+  hvtest::SceneState scene;
+  StereoDenoiser denoiser, reference;
+  StereoFrame frame;
+  for (std::uint32_t t = 0; t < 3; ++t)
+  {
+    scene.cameraPosition.x = 0.1f * t;
+    frame.render(scene, t);
+    frame.denoise(denoiser);
+    frame.denoise(reference);
+  }
+  scene.cameraPosition.x = 0.3f;
+  frame.render(scene, 3);
+  StereoFrame copy = frame;
+  frame.denoise(denoiser);
+  denoiser.parameters().luminanceSigma = 2.0f;
+  reference.parameters().luminanceSigma = 2.0f;
+  const EyeFrame frames[2] = { frame.eyes[0].frame(), frame.eyes[1].frame() };
+  float* out[2] = { frame.outputs[0].data(), frame.outputs[1].data() };
+  std::string error;
+  ASSERT_TRUE(denoiser.denoise(frames, 2, 0.0f, out, error, true)) << error;
+  copy.denoise(reference);
+  EXPECT_EQ(frame.outputs[0], copy.outputs[0]);
+  EXPECT_EQ(frame.outputs[1], copy.outputs[1]);
+  EXPECT_EQ(denoiser.historyLength(0, Width / 2, Height / 2),
+    reference.historyLength(0, Width / 2, Height / 2));
+}

@@ -1,0 +1,52 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+//
+// Instantiates the denoiser's per-pixel functions as CUDA device code: cross-view
+// reprojection with its disocclusion test and zeta, w_v's sigmoid, one a-trous tap and D2's
+// blend. It proves they stay device-compilable; a CUDA backend that launches them comes later.
+#include "hv/denoise/DenoiseKernels.h"
+
+namespace hv
+{
+namespace denoise
+{
+// One eye's D2 on the device, and the weights zeta, w_v's sigmoid and an a-trous tap of the
+// same pixel pair, written out as a GPU implementation would use them.
+__global__ void stereoBlendKernel(const Surface* left, const Surface* right,
+  const glm::vec4* leftD1, const glm::vec4* rightD1, glm::mat4 rightViewProjection,
+  glm::mat4 rightView, int width, int height, float illuminationDifference, EdgeStopping edges,
+  glm::vec4* out, glm::vec4* weights)
+{
+  const int x = blockIdx.x * blockDim.x + threadIdx.x;
+  const int y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x >= width || y >= height)
+  {
+    return;
+  }
+  const int i = y * width + x;
+  const Surface& s = left[i];
+  glm::vec4 value = leftD1[i];
+  glm::vec4 w(0.0f);
+  glm::vec2 pixel;
+  float depth;
+  if (s.kind != SurfaceNone &&
+    projectToPixel(rightViewProjection, rightView, width, height, s.firstScatterPosition, pixel, depth))
+  {
+    const int q = static_cast<int>(pixel.y) * width + static_cast<int>(pixel.x);
+    if (consistentSurface(right[q], depth, s.normal, s.gradientMagnitude, s.depthSpread, 0.03f, 0.5f))
+    {
+      const float lambda = stereoBlendWeight(s.albedo, right[q].albedo, 0.5f, 2.0f);
+      value = lambda * value + (1.0f - lambda) * rightD1[q];
+      w = glm::vec4(bilateralWeight(s, right[q], edges),
+        temporalGate(illuminationDifference, 20.0f, -1.25f),
+        waveletWeight(s, right[q], luminance(glm::vec3(value)),
+          luminance(glm::vec3(rightD1[q])), 2.0f, edges),
+        lambda);
+    }
+  }
+  out[i] = clampToNeighbourhood(remodulate(demodulate(value, s.albedo), s.albedo), leftD1[i],
+    glm::vec4(1.0f), 2.0f);
+  weights[i] = w;
+}
+}
+}

@@ -1,0 +1,144 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+#ifndef hv_denoise_StereoDenoiser_h
+#define hv_denoise_StereoDenoiser_h
+
+#include "hv/denoise/DenoiseKernels.h"
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+namespace hv
+{
+namespace denoise
+{
+// One eye's frame as vtkPathTracedVolumeMapper produces it (interleaved, row 0 at the
+// bottom): linear premultiplied RGBA radiance, the first scatter point and the optical state
+// there, and the eye's OpenGL-convention matrices. The denoiser reads, never writes, these.
+struct EyeFrame
+{
+  int width = 0;
+  int height = 0;
+  const float* radiance = nullptr;             // 4 per pixel
+  const float* firstScatterPosition = nullptr; // 3 per pixel, world
+  const unsigned char* firstScatterValid = nullptr;
+  const float* depth = nullptr;             // 1 per pixel, eye-space distance
+  const float* albedo = nullptr;            // 3 per pixel
+  const float* normal = nullptr;            // 3 per pixel, unit, facing the eye
+  const float* gradientMagnitude = nullptr; // 1 per pixel, [0, 1]
+  glm::mat4 view = glm::mat4(1.0f);
+  glm::mat4 projection = glm::mat4(1.0f);
+  // World from volume (the vtkVolume's matrix). When it changes between frames, first scatter
+  // points are carried with the volume before they are reprojected into the previous frame,
+  // so a volume the user moves keeps its history.
+  glm::mat4 volumeMatrix = glm::mat4(1.0f);
+};
+
+struct DenoiserParameters
+{
+  // Stages; the evaluation switches them off one by one for the paper's ablations.
+  bool crossViewSamples = true;     // D1: the corresponding pixels of Eq. 2 in the other eye
+                                    // and the previous frame, bilateral-weighted by zeta
+  bool temporalAccumulation = true; // D1: blending with the reprojected history, weight w_v
+  bool spatialFilter = true;        // D1: the edge-aware a-trous wavelet filter
+  bool stereoBlend = true;          // D2
+  bool demodulateAlbedo = true;     // filter radiance / albedo, re-modulate after
+
+  EdgeStopping crossView; // zeta of the cross-view samples
+  // zeta of w_v. Looser than the cross-view one: the history weight compounds over frames
+  // (a history of N frames keeps 1 / (1 - w_v) at most), and the first scatter point's depth
+  // and albedo are random inside translucent material, so a strict zeta would cap the history
+  // at a few frames where the surface is the same; disocclusions are caught by the hard
+  // depth and normal test instead.
+  EdgeStopping temporal{ 0.5f, 4.0f, 1.0f };
+  EdgeStopping wavelet{ 0.2f, 32.0f, 0.01f }; // the wavelet filter's edge-stopping functions
+
+  // w_v = delta(1 / (T - 1)) zeta with delta(u) = 1 / (1 + exp(-steepness (u - centre))).
+  // The defaults keep delta > 0.93 for T < 0.1 (sensor noise measured 0.014) and drop it
+  // below 0.03 for T > 0.3 (a lamp switched on measured 0.65). Steepness 1 and centre 0 are
+  // the plain logistic, delta(-1) = 0.27 at T = 0.
+  float sigmoidSteepness = 20.0f;
+  float sigmoidCentre = -1.25f;
+  // The history counts as w_v times its length (in frames) against the current frame's 1,
+  // up to this many frames: a running mean for static views that still adapts.
+  int maximumHistoryLength = 32;
+  // > 0: a plain exponential average with this weight for the current frame instead (the
+  // "temporal-only" baseline of the evaluation); w_v is then not used.
+  float exponentialAverageAlpha = 0.0f;
+  // Disocclusion tests of reprojected pixels: relative depth difference and normal cosine.
+  float depthTolerance = 0.03f;
+  float normalCosine = 0.5f;
+  // Neighbourhood clamping of the history to mean +- width * sigma of the current 3x3
+  // neighbourhood (of the cross-view-filtered frame); 0 switches it off.
+  float clampWidth = 2.0f;
+
+  int waveletLevels = 4;       // a-trous iterations, 3x3 taps at steps 1, 2, 4, ...
+  float luminanceSigma = 4.0f; // sigma_l of SVGF's luminance edge-stopping
+
+  float stereoAlpha = 0.5f; // alpha of D2's lambda
+  float stereoBeta = 2.0f;  // beta of D2's lambda
+};
+
+// What the last call did, for progress displays, tests and the benchmark.
+struct DenoiserStatistics
+{
+  double milliseconds[6] = { 0, 0, 0, 0, 0, 0 }; // prepare, cross-view, temporal, wavelet,
+                                                 // stereo blend, total
+  double surfaceFraction[2] = { 0, 0 };     // pixels that see the volume
+  double disoccludedFraction[2] = { 0, 0 }; // of those, pixels without a usable history
+  double meanHistoryLength[2] = { 0, 0 };   // frames, over pixels that see the volume
+  float temporalGate = 0.0f;                // delta(1 / (T - 1)) of the frame
+};
+
+// The two-step stereo spatio-temporal denoiser of the paper's Section 3.2 over VTK-free
+// buffers. D1: cross-view bilateral samples (Eq. 2), temporal blending with weight
+// w_v = delta(1/(T-1)) zeta, and a variance-guided a-trous wavelet filter on albedo-
+// demodulated radiance; D2: lambda-weighted blending of the eyes. It keeps each eye's
+// history between calls; all passes are per pixel and independent, so results do not depend
+// on the number of threads.
+class StereoDenoiser
+{
+public:
+  // Runs body(begin, end) over [0, count) in parallel chunks; serial by default. The VTK
+  // adapter passes vtkSMPTools::For.
+  using ParallelFor = std::function<void(
+    std::int64_t count, const std::function<void(std::int64_t, std::int64_t)>& body)>;
+
+  StereoDenoiser();
+  ~StereoDenoiser();
+  StereoDenoiser(const StereoDenoiser&) = delete;
+  StereoDenoiser& operator=(const StereoDenoiser&) = delete;
+
+  void setParallelFor(ParallelFor parallelFor);
+  DenoiserParameters& parameters() { return this->Parameters; }
+  const DenoiserParameters& parameters() const { return this->Parameters; }
+
+  // Forgets both eyes' history: the next frame is filtered spatially only.
+  void reset();
+
+  // Denoises one frame of `eyeCount` eyes (1: mono, no stereo samples or D2; 2: left, right)
+  // with the illumination difference T of this frame. Writes RGBA per pixel into
+  // outputs[eye] (width x height x 4 floats each). Returns false and explains in `error`,
+  // without touching the history, when the input is unusable. With replaceLastFrame the
+  // call denoises the last frame again (say, after a parameter change) from the history it
+  // started with, instead of counting the same samples twice as a new frame.
+  bool denoise(const EyeFrame* eyes, int eyeCount, float illuminationDifference,
+    float* const* outputs, std::string& error, bool replaceLastFrame = false);
+
+  const DenoiserStatistics& statistics() const { return this->Statistics; }
+
+  // Frames of history an eye's pixel has (0 when none), for inspection.
+  float historyLength(int eye, int x, int y) const;
+
+private:
+  struct Internals;
+  std::unique_ptr<Internals> Impl;
+  DenoiserParameters Parameters;
+  DenoiserStatistics Statistics;
+};
+}
+}
+
+#endif

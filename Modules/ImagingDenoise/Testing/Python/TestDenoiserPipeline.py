@@ -1,0 +1,94 @@
+"""The denoiser from Python: the mapper's eye images through
+vtkStereoSpatioTemporalDenoiser, the denoised eyes' arrays and field data, and its
+attachment to the mapper. Runs with Debian's /usr/bin/python3 (the one with vtkmodules)."""
+
+import unittest
+
+import holovolume
+from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPiecewiseFunction
+from vtkmodules.vtkCommonMath import vtkMatrix4x4
+from vtkmodules.vtkRenderingCore import (vtkCamera, vtkColorTransferFunction,
+                                         vtkVolume, vtkVolumeProperty)
+
+
+def sphere_volume(size=24):
+    image = vtkImageData()
+    image.SetDimensions(size, size, size)
+    image.AllocateScalars(3, 1)  # VTK_UNSIGNED_CHAR
+    scalars = image.GetPointData().GetScalars()
+    c = 0.5 * (size - 1)
+    for k in range(size):
+        for j in range(size):
+            for i in range(size):
+                r = ((i - c) ** 2 + (j - c) ** 2 + (k - c) ** 2) ** 0.5
+                scalars.SetValue((k * size + j) * size + i, 200 if r < 0.35 * size else 0)
+    return image
+
+
+def eye_matrices(offset):
+    camera = vtkCamera()
+    camera.SetPosition(offset, 0, 60)
+    camera.SetFocalPoint(offset, 0, 0)
+    camera.SetViewAngle(30)
+    camera.SetClippingRange(30, 90)
+    view, projection = vtkMatrix4x4(), vtkMatrix4x4()
+    view.DeepCopy(camera.GetModelViewTransformMatrix())
+    projection.DeepCopy(camera.GetProjectionTransformMatrix(1.0, -1, 1))
+    return view, projection
+
+
+class DenoiserPipelineTest(unittest.TestCase):
+    def test_package_exports_the_denoiser(self):
+        self.assertIn("vtkStereoSpatioTemporalDenoiser", holovolume.__all__)
+
+    def test_mapper_eyes_through_the_denoiser(self):
+        mapper = holovolume.vtkPathTracedVolumeMapper()
+        mapper.SetInputData(sphere_volume())
+        mapper.ProgressiveAccumulationOff()
+        opacity = vtkPiecewiseFunction()
+        opacity.AddPoint(0, 0.0)
+        opacity.AddPoint(255, 0.5)
+        color = vtkColorTransferFunction()
+        color.AddRGBPoint(0, 0.9, 0.8, 0.7)
+        color.AddRGBPoint(255, 0.9, 0.8, 0.7)
+        prop = vtkVolumeProperty()
+        prop.SetScalarOpacity(opacity)
+        prop.SetColor(color)
+        volume = vtkVolume()
+        volume.SetMapper(mapper)
+        volume.SetProperty(prop)
+        left, right = eye_matrices(-1.0), eye_matrices(1.0)
+
+        denoiser = holovolume.vtkStereoSpatioTemporalDenoiser()
+        denoiser.SetIlluminationDifference(0.0)
+        denoiser.SetWaveletLevels(3)
+        for _ in range(3):
+            self.assertEqual(mapper.RenderStereoFrame(volume, left[0], left[1], right[0],
+                                                      right[1], 40, 40), 1)
+            denoiser.SetLeftEyeData(mapper.GetEyeOutput(0))
+            denoiser.SetRightEyeData(mapper.GetEyeOutput(1))
+            denoiser.Update()
+        for eye in (0, 1):
+            output = denoiser.GetEyeOutput(eye)
+            self.assertEqual(output.GetDimensions(), (40, 40, 1))
+            radiance = output.GetPointData().GetArray("Radiance")
+            self.assertEqual(radiance.GetNumberOfComponents(), 4)
+            self.assertIsNotNone(output.GetPointData().GetArray("Albedo"))
+            fields = output.GetFieldData()
+            # Three frames of a static view: the history grows, at most one frame a frame.
+            history = fields.GetArray("MeanHistoryLength").GetValue(0)
+            self.assertGreater(history, 1.5)
+            self.assertLessEqual(history, 3.0)
+            self.assertGreater(fields.GetArray("TemporalWeight").GetValue(0), 0.99)
+            # The mapper's own image is untouched: its field data has no denoiser figures.
+            self.assertIsNone(mapper.GetEyeOutput(eye).GetFieldData()
+                              .GetArray("MeanHistoryLength"))
+        self.assertGreater(denoiser.GetLastFrameMilliseconds(), 0.0)
+
+        mapper.SetDenoiser(denoiser)
+        self.assertIs(mapper.GetDenoiser(), denoiser)
+        mapper.SetDenoiser(None)
+
+
+if __name__ == "__main__":
+    unittest.main()

@@ -1,0 +1,257 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+/**
+ * @class   vtkStereoSpatioTemporalDenoiser
+ * @brief   Two-step stereo spatio-temporal denoiser for path-traced stereo frames.
+ *
+ * The denoiser of the paper's Section 3.2 for low-sample (2 spp) stereo path tracing. Each
+ * pixel k_L^t is reprojected through its first scatter point x (Eq. 2): into the right eye,
+ * k_R^t = pi_R^t(x(k_L^t)), into the previous frame, k_L^{t-1} = pi_L^{t-1}(x(k_L^t)), and into
+ * the previous right eye, k_R^{t-1} = pi_R^{t-1}(x(k_L^{t-1})).
+ *
+ * D1: those corresponding pixels' samples are averaged with bilateral weights zeta (albedo,
+ * gradient and depth of x), the result is blended with the reprojected history with the weight
+ * w_v = delta(1/(T-1)) zeta (times the history length; the current frame weighs 1), and an
+ * edge-aware a-trous wavelet filter guided by the per-pixel variance (SVGF) smooths what
+ * noise is left, on radiance demodulated by the albedo. D2: each eye is blended with the
+ * other's D1 result, v(k_L,2) = lambda v(k_L,1) + (1-lambda) v(k_R,1),
+ * lambda = alpha (beta - exp(-|gamma_L - gamma_R|)). The right eye symmetrically.
+ * Documentation/Denoising.md gives the details and the measured quality.
+ *
+ * Input port 0: the left (or only) eye, port 1: the right eye (optional; without it the
+ * filter denoises one view, without stereo samples or D2). Both are images as
+ * vtkPathTracedVolumeMapper::GetEyeOutput() returns them: point data "Radiance" (float RGBA),
+ * "FirstScatterPosition", "FirstScatterValid", "Depth", "Albedo", "Normal",
+ * "GradientMagnitude", field data "ViewMatrix" and "ProjectionMatrix". Render with
+ * ProgressiveAccumulation off (the denoiser accumulates over time itself).
+ * Input port 2 (optional): anything whose field data carries "IlluminationDifference", such
+ * as vtkEnvironmentSyncedLight's output; it supplies T when connected, the
+ * IlluminationDifference setting otherwise. T counts once per distinct "FrameIndex" of that
+ * input: when the environment has not produced a new frame, the lighting has not changed.
+ *
+ * Output port 0 and 1: the denoised left and right eye: the input image with "Radiance"
+ * replaced (linear, premultiplied RGBA) and field data "IlluminationDifference",
+ * "TemporalWeight" (delta(1/(T-1))), "DisoccludedFraction" and "MeanHistoryLength" added.
+ *
+ * The filter keeps each eye's history between executions. A new frame is an execution whose
+ * inputs changed; an execution after a mere parameter change denoises the same frame again
+ * from the history it started with. The history is dropped on ResetHistory(), on an image
+ * size change, and when the mapper's "ClassificationStamp" (transfer function, data) changes.
+ * Per-pixel work runs with vtkSMPTools; results do not depend on the number of threads.
+ */
+
+#ifndef vtkStereoSpatioTemporalDenoiser_h
+#define vtkStereoSpatioTemporalDenoiser_h
+
+#include "holoImagingDenoiseModule.h" // For export macro
+#include "vtkImageAlgorithm.h"
+
+#include <memory> // For std::unique_ptr
+
+class vtkAlgorithmOutput;
+class vtkImageData;
+
+class HOLOIMAGINGDENOISE_EXPORT vtkStereoSpatioTemporalDenoiser : public vtkImageAlgorithm
+{
+public:
+  static vtkStereoSpatioTemporalDenoiser* New();
+  vtkTypeMacro(vtkStereoSpatioTemporalDenoiser, vtkImageAlgorithm);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  ///@{
+  /**
+   * The eyes' images (port 0 left or mono, port 1 right) and, on port 2, the source of T.
+   */
+  void SetLeftEyeData(vtkImageData* image);
+  void SetRightEyeData(vtkImageData* image);
+  void SetLeftEyeConnection(vtkAlgorithmOutput* output);
+  void SetRightEyeConnection(vtkAlgorithmOutput* output);
+  void SetIlluminationConnection(vtkAlgorithmOutput* output);
+  ///@}
+
+  /**
+   * The denoised eye (0 left or mono, 1 right); nullptr for another index.
+   */
+  vtkImageData* GetEyeOutput(int eye);
+
+  ///@{
+  /**
+   * T in [0, 1), the illumination difference of this frame, when port 2 is not connected.
+   * Values outside are clamped; NaN drops the history like T -> 1. Default 0.
+   */
+  vtkSetMacro(IlluminationDifference, double);
+  vtkGetMacro(IlluminationDifference, double);
+  ///@}
+
+  /**
+   * Forget both eyes' history; the next frame is filtered spatially only.
+   */
+  void ResetHistory();
+
+  ///@{
+  /**
+   * The stages, all on by default: CrossViewSamples (D1's bilateral filtering over the
+   * corresponding pixels of Eq. 2), TemporalAccumulation (D1's blending with the history),
+   * SpatialFilter (D1's a-trous wavelet filter), StereoBlend (D2), DemodulateAlbedo.
+   */
+  vtkSetMacro(CrossViewSamples, bool);
+  vtkGetMacro(CrossViewSamples, bool);
+  vtkBooleanMacro(CrossViewSamples, bool);
+  vtkSetMacro(TemporalAccumulation, bool);
+  vtkGetMacro(TemporalAccumulation, bool);
+  vtkBooleanMacro(TemporalAccumulation, bool);
+  vtkSetMacro(SpatialFilter, bool);
+  vtkGetMacro(SpatialFilter, bool);
+  vtkBooleanMacro(SpatialFilter, bool);
+  vtkSetMacro(StereoBlend, bool);
+  vtkGetMacro(StereoBlend, bool);
+  vtkBooleanMacro(StereoBlend, bool);
+  vtkSetMacro(DemodulateAlbedo, bool);
+  vtkGetMacro(DemodulateAlbedo, bool);
+  vtkBooleanMacro(DemodulateAlbedo, bool);
+  ///@}
+
+  ///@{
+  /**
+   * zeta, the bilateral weight of the cross-view samples and of w_v:
+   * exp(-|d albedo|^2 / (2 AlbedoSigma^2) - NormalSharpness (1 - n.n') min(g, g')
+   * - |dz| / (DepthSigma z)). Defaults 0.1, 16, 0.02.
+   */
+  vtkSetClampMacro(AlbedoSigma, double, 1e-4, 10.0);
+  vtkGetMacro(AlbedoSigma, double);
+  vtkSetClampMacro(NormalSharpness, double, 0.0, 1e4);
+  vtkGetMacro(NormalSharpness, double);
+  vtkSetClampMacro(DepthSigma, double, 1e-5, 10.0);
+  vtkGetMacro(DepthSigma, double);
+  ///@}
+
+  ///@{
+  /**
+   * The sigmoid delta(u) = 1 / (1 + exp(-SigmoidSteepness (u - SigmoidCenter))) of
+   * w_v = delta(1/(T-1)) zeta. Defaults 20 and -1.25: delta > 0.93 for T < 0.1, < 0.03 for
+   * T > 0.3. Steepness 1 and center 0 give the plain logistic.
+   */
+  vtkSetClampMacro(SigmoidSteepness, double, 0.0, 1e4);
+  vtkGetMacro(SigmoidSteepness, double);
+  vtkSetMacro(SigmoidCenter, double);
+  vtkGetMacro(SigmoidCenter, double);
+  ///@}
+
+  ///@{
+  /**
+   * Longest history in frames (default 32): a static view averages up to this many frames.
+   */
+  vtkSetClampMacro(MaximumHistoryLength, int, 1, 4096);
+  vtkGetMacro(MaximumHistoryLength, int);
+  ///@}
+
+  ///@{
+  /**
+   * When positive, a plain exponential average with this weight for the current frame
+   * replaces w_v (the "temporal-only" baseline of the evaluation). Default 0 (off).
+   */
+  vtkSetClampMacro(ExponentialAverageAlpha, double, 0.0, 1.0);
+  vtkGetMacro(ExponentialAverageAlpha, double);
+  ///@}
+
+  ///@{
+  /**
+   * Disocclusion: a reprojected pixel is used only if its stored depth is within
+   * DepthTolerance (relative, default 0.03) of the reprojected point's and, where both have a
+   * gradient, the normals' cosine exceeds NormalTolerance (default 0.5).
+   */
+  vtkSetClampMacro(DepthTolerance, double, 0.0, 10.0);
+  vtkGetMacro(DepthTolerance, double);
+  vtkSetClampMacro(NormalTolerance, double, -1.0, 1.0);
+  vtkGetMacro(NormalTolerance, double);
+  ///@}
+
+  ///@{
+  /**
+   * Neighbourhood clamping of the history to mean +- ClampWidth standard deviations of the
+   * current 3x3 neighbourhood (default 2); 0 switches it off.
+   */
+  vtkSetClampMacro(ClampWidth, double, 0.0, 100.0);
+  vtkGetMacro(ClampWidth, double);
+  ///@}
+
+  ///@{
+  /**
+   * The a-trous wavelet filter: iterations (default 4; 3x3 taps at steps 1, 2, 4, 8), the
+   * luminance edge-stopping sigma_l (default 4, in standard deviations of the filtered
+   * value), and its albedo, normal and depth edge-stopping (defaults 0.2, 32, 0.01).
+   */
+  vtkSetClampMacro(WaveletLevels, int, 0, 10);
+  vtkGetMacro(WaveletLevels, int);
+  vtkSetClampMacro(LuminanceSigma, double, 1e-3, 1e3);
+  vtkGetMacro(LuminanceSigma, double);
+  vtkSetClampMacro(WaveletAlbedoSigma, double, 1e-4, 10.0);
+  vtkGetMacro(WaveletAlbedoSigma, double);
+  vtkSetClampMacro(WaveletNormalSharpness, double, 0.0, 1e4);
+  vtkGetMacro(WaveletNormalSharpness, double);
+  vtkSetClampMacro(WaveletDepthSigma, double, 1e-5, 10.0);
+  vtkGetMacro(WaveletDepthSigma, double);
+  ///@}
+
+  ///@{
+  /**
+   * D2's lambda = StereoAlpha (StereoBeta - exp(-|gamma_L - gamma_R|)), clamped to [0, 1].
+   * Defaults 0.5 and 2, as in the paper.
+   */
+  vtkSetClampMacro(StereoAlpha, double, 0.0, 10.0);
+  vtkGetMacro(StereoAlpha, double);
+  vtkSetClampMacro(StereoBeta, double, 0.0, 10.0);
+  vtkGetMacro(StereoBeta, double);
+  ///@}
+
+  /**
+   * Milliseconds the last frame took (all stages).
+   */
+  double GetLastFrameMilliseconds();
+
+protected:
+  vtkStereoSpatioTemporalDenoiser();
+  ~vtkStereoSpatioTemporalDenoiser() override;
+
+  int FillInputPortInformation(int port, vtkInformation* info) override;
+  int FillOutputPortInformation(int port, vtkInformation* info) override;
+  int RequestInformation(vtkInformation* request, vtkInformationVector** inputVector,
+    vtkInformationVector* outputVector) override;
+  int RequestUpdateExtent(vtkInformation* request, vtkInformationVector** inputVector,
+    vtkInformationVector* outputVector) override;
+  int RequestData(vtkInformation* request, vtkInformationVector** inputVector,
+    vtkInformationVector* outputVector) override;
+
+  double IlluminationDifference = 0.0;
+  bool CrossViewSamples = true;
+  bool TemporalAccumulation = true;
+  bool SpatialFilter = true;
+  bool StereoBlend = true;
+  bool DemodulateAlbedo = true;
+  double AlbedoSigma = 0.1;
+  double NormalSharpness = 16.0;
+  double DepthSigma = 0.02;
+  double SigmoidSteepness = 20.0;
+  double SigmoidCenter = -1.25;
+  int MaximumHistoryLength = 32;
+  double ExponentialAverageAlpha = 0.0;
+  double DepthTolerance = 0.03;
+  double NormalTolerance = 0.5;
+  double ClampWidth = 2.0;
+  int WaveletLevels = 4;
+  double LuminanceSigma = 4.0;
+  double WaveletAlbedoSigma = 0.2;
+  double WaveletNormalSharpness = 32.0;
+  double WaveletDepthSigma = 0.01;
+  double StereoAlpha = 0.5;
+  double StereoBeta = 2.0;
+
+private:
+  vtkStereoSpatioTemporalDenoiser(const vtkStereoSpatioTemporalDenoiser&) = delete;
+  void operator=(const vtkStereoSpatioTemporalDenoiser&) = delete;
+
+  class vtkInternals;
+  std::unique_ptr<vtkInternals> Internals;
+};
+
+#endif
