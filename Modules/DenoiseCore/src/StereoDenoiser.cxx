@@ -421,11 +421,22 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         }
       }
     });
-  // Depth spread over the 3x3 neighbourhood (of pixels with their own scatter point).
+  // Depth spread over the 3x3 neighbourhood (of pixels with their own scatter point), and the
+  // point that is reprojected: at the first scatter depth on the ray through the pixel centre.
+  // The first scatter point itself lies on a jittered sample ray; reprojecting it would
+  // resample the history at a random sub-pixel offset every frame and blur it a little more
+  // each time, even for a still camera.
+  glm::mat4 inverseViewProjection[2];
+  for (int e = 0; e < eyeCount; ++e)
+  {
+    inverseViewProjection[e] = glm::inverse(impl.eyes[e].viewProjection);
+  }
   impl.forRows(eyeCount, height,
     [&](int e, int y)
     {
       EyeState& eye = impl.eyes[e];
+      const glm::mat4& inverse = inverseViewProjection[e];
+      const glm::vec4 viewRow(eye.view[0][2], eye.view[1][2], eye.view[2][2], eye.view[3][2]);
       for (int x = 0; x < width; ++x)
       {
         const std::size_t i = static_cast<std::size_t>(y) * width + x;
@@ -433,6 +444,22 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         if (s.kind == SurfaceNone)
         {
           continue;
+        }
+        {
+          const float ndcX = 2.0f * (static_cast<float>(x) + 0.5f) / static_cast<float>(width) - 1.0f;
+          const float ndcY = 2.0f * (static_cast<float>(y) + 0.5f) / static_cast<float>(height) - 1.0f;
+          const glm::vec4 nearClip = inverse * glm::vec4(ndcX, ndcY, -1.0f, 1.0f);
+          const glm::vec4 farClip = inverse * glm::vec4(ndcX, ndcY, 1.0f, 1.0f);
+          const glm::vec3 nearPoint = glm::vec3(nearClip) / nearClip.w;
+          const glm::vec3 farPoint = glm::vec3(farClip) / farClip.w;
+          // The view depth is affine along the segment: solve for the stored depth.
+          const float nearDepth = -glm::dot(viewRow, glm::vec4(nearPoint, 1.0f));
+          const float farDepth = -glm::dot(viewRow, glm::vec4(farPoint, 1.0f));
+          if (std::abs(farDepth - nearDepth) > 1e-12f)
+          {
+            const float t = (s.depth - nearDepth) / (farDepth - nearDepth);
+            s.firstScatterPosition = nearPoint + t * (farPoint - nearPoint);
+          }
         }
         float sum = 0.0f, squareSum = 0.0f;
         int count = 0;
