@@ -281,12 +281,12 @@ public:
 
   ///@{
   /**
-   * A denoiser for what the render window shows (optional, none by default). With one, each
-   * window frame is rendered afresh (the denoiser accumulates over time instead of the
-   * mapper), denoised, and the denoised image is displayed; in a stereo window the first eye's
-   * pass renders and denoises both eyes and the second pass shows the other denoised eye.
-   * The off-screen API (RenderStereoFrame, GetEyeOutput) is not affected: connect the eye
-   * images to a vtkStereoSpatioTemporalDenoiser yourself there.
+   * A denoiser for what the render window shows (optional, none by default). With one, every
+   * frame is rendered afresh, in the window and off-screen (the denoiser accumulates over time
+   * instead of the mapper), and the window shows the denoised image; in a stereo window the
+   * first eye's pass renders and denoises both eyes and the second pass shows the other
+   * denoised eye. RenderStereoFrame() does not run the denoiser: connect GetEyeOutput()'s
+   * images to a vtkStereoSpatioTemporalDenoiser there.
    */
   void SetDenoiser(vtkStereoSpatioTemporalDenoiser* denoiser);
   vtkGetObjectMacro(Denoiser, vtkStereoSpatioTemporalDenoiser);

@@ -15,6 +15,7 @@
 #include "vtkStereoSpatioTemporalDenoiser.h"
 #include "vtkVolume.h"
 
+#include "hv/denoise/DenoiseKernels.h"
 #include "hv/denoise/ImageQuality.h"
 
 #include "vtkFieldData.h"
@@ -117,6 +118,17 @@ double MeanAbsoluteChange(const std::vector<float>& a, const std::vector<float>&
   return sum / static_cast<double>(a.size());
 }
 
+glm::mat4 FieldMatrix(vtkImageData* image, const char* name)
+{
+  vtkDataArray* array = image->GetFieldData()->GetArray(name);
+  glm::mat4 matrix(1.0f);
+  for (int k = 0; k < 16; ++k)
+  {
+    matrix[k % 4][k / 4] = static_cast<float>(array->GetComponent(k, 0)); // row-major in VTK
+  }
+  return matrix;
+}
+
 // RMS over left pixels whose first scatter point the right eye also sees (depth within 2 %)
 // of the difference between the eyes' errors, in display values.
 double InterEyeDiscrepancy(vtkImageData* leftEye, vtkImageData* rightEye,
@@ -129,15 +141,8 @@ double InterEyeDiscrepancy(vtkImageData* leftEye, vtkImageData* rightEye,
   vtkDataArray* valid = leftEye->GetPointData()->GetArray("FirstScatterValid");
   auto* rightDepth = vtkFloatArray::SafeDownCast(rightEye->GetPointData()->GetArray("Depth"));
   vtkDataArray* rightValid = rightEye->GetPointData()->GetArray("FirstScatterValid");
-  vtkDataArray* viewArray = rightEye->GetFieldData()->GetArray("ViewMatrix");
-  vtkDataArray* projectionArray = rightEye->GetFieldData()->GetArray("ProjectionMatrix");
-  vtkNew<vtkMatrix4x4> view, projection, viewProjection;
-  for (int k = 0; k < 16; ++k)
-  {
-    view->SetElement(k / 4, k % 4, viewArray->GetComponent(k, 0));
-    projection->SetElement(k / 4, k % 4, projectionArray->GetComponent(k, 0));
-  }
-  vtkMatrix4x4::Multiply4x4(projection, view, viewProjection);
+  const glm::mat4 view = FieldMatrix(rightEye, "ViewMatrix");
+  const glm::mat4 viewProjection = FieldMatrix(rightEye, "ProjectionMatrix") * view;
   double squared = 0.0;
   std::size_t count = 0;
   for (vtkIdType i = 0; i < static_cast<vtkIdType>(dims[0]) * dims[1]; ++i)
@@ -146,23 +151,16 @@ double InterEyeDiscrepancy(vtkImageData* leftEye, vtkImageData* rightEye,
     {
       continue;
     }
-    double x[4] = { position->GetComponent(i, 0), position->GetComponent(i, 1),
-      position->GetComponent(i, 2), 1.0 };
-    double clip[4], eye[4];
-    viewProjection->MultiplyPoint(x, clip);
-    view->MultiplyPoint(x, eye);
-    if (clip[3] <= 0.0)
+    const glm::vec3 x(position->GetComponent(i, 0), position->GetComponent(i, 1),
+      position->GetComponent(i, 2));
+    glm::vec2 pixel;
+    float depth;
+    if (!hv::denoise::projectToPixel(viewProjection, view, dims[0], dims[1], x, pixel, depth))
     {
       continue;
     }
-    const int px = static_cast<int>(std::floor(0.5 * (clip[0] / clip[3] + 1.0) * dims[0]));
-    const int py = static_cast<int>(std::floor(0.5 * (clip[1] / clip[3] + 1.0) * dims[1]));
-    if (px < 0 || py < 0 || px >= dims[0] || py >= dims[1])
-    {
-      continue;
-    }
-    const vtkIdType q = static_cast<vtkIdType>(py) * dims[0] + px;
-    if (!rightValid->GetComponent(q, 0) || std::abs(rightDepth->GetValue(q) + eye[2]) > 0.02 * -eye[2])
+    const vtkIdType q = static_cast<vtkIdType>(pixel.y) * dims[0] + static_cast<vtkIdType>(pixel.x);
+    if (!rightValid->GetComponent(q, 0) || std::abs(rightDepth->GetValue(q) - depth) > 0.02f * depth)
     {
       continue;
     }

@@ -175,6 +175,30 @@ Surface asSeenFrom(const Surface& surface, float viewDepth)
   return seen;
 }
 
+// Calls visit(j, dx, dy) for each tap of the 3x3 stencil with spacing `step` around (x, y)
+// that lies inside the image, row by row (j is the tap's pixel index).
+template <typename Visit>
+inline void forStencilTaps(int x, int y, int width, int height, int step, Visit&& visit)
+{
+  for (int dy = -1; dy <= 1; ++dy)
+  {
+    const int ny = y + dy * step;
+    if (ny < 0 || ny >= height)
+    {
+      continue;
+    }
+    for (int dx = -1; dx <= 1; ++dx)
+    {
+      const int nx = x + dx * step;
+      if (nx < 0 || nx >= width)
+      {
+        continue;
+      }
+      visit(static_cast<std::size_t>(ny) * width + nx, dx, dy);
+    }
+  }
+}
+
 bool finite4(const float* v)
 {
   return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]) && std::isfinite(v[3]);
@@ -463,26 +487,17 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         }
         float sum = 0.0f, squareSum = 0.0f;
         int count = 0;
-        for (int dy = -1; dy <= 1; ++dy)
-        {
-          const int ny = y + dy;
-          for (int dx = -1; dx <= 1; ++dx)
+        forStencilTaps(x, y, width, height, 1,
+          [&](std::size_t j, int, int)
           {
-            const int nx = x + dx;
-            if (nx < 0 || ny < 0 || nx >= width || ny >= height)
+            const Surface& n = eye.surface[j];
+            if (n.kind == SurfaceOwn)
             {
-              continue;
+              sum += n.depth;
+              squareSum += n.depth * n.depth;
+              ++count;
             }
-            const Surface& n = eye.surface[static_cast<std::size_t>(ny) * width + nx];
-            if (n.kind != SurfaceOwn)
-            {
-              continue;
-            }
-            sum += n.depth;
-            squareSum += n.depth * n.depth;
-            ++count;
-          }
-        }
+          });
         const float mean = sum / static_cast<float>(glm::max(count, 1));
         s.depthSpread = count > 1
           ? std::sqrt(glm::max(squareSum / static_cast<float>(count) - mean * mean, 0.0f))
@@ -593,24 +608,12 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         glm::vec4 mean(0.0f), squareMean(0.0f);
         float luminanceMean = 0.0f, luminanceSquareMean = 0.0f;
         int neighbours = 0;
-        for (int dy = -1; dy <= 1; ++dy)
-        {
-          const int ny = y + dy;
-          if (ny < 0 || ny >= height)
+        forStencilTaps(x, y, width, height, 1,
+          [&](std::size_t j, int, int)
           {
-            continue;
-          }
-          for (int dx = -1; dx <= 1; ++dx)
-          {
-            const int nx = x + dx;
-            if (nx < 0 || nx >= width)
-            {
-              continue;
-            }
-            const std::size_t j = static_cast<std::size_t>(ny) * width + nx;
             if (eye.surface[j].kind == SurfaceNone)
             {
-              continue;
+              return;
             }
             const glm::vec4 v = eye.fused[j];
             mean += v;
@@ -619,8 +622,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
             luminanceMean += l;
             luminanceSquareMean += l * l;
             ++neighbours;
-          }
-        }
+          });
         const float inverseNeighbours = 1.0f / static_cast<float>(neighbours);
         mean *= inverseNeighbours;
         squareMean *= inverseNeighbours;
@@ -749,55 +751,29 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           }
           // The luminance scale uses the 3x3-blurred variance (SVGF Eq. 5's g3x3).
           float blurredVariance = 0.0f, blurWeight = 0.0f;
-          for (int dy = -1; dy <= 1; ++dy)
-          {
-            const int ny = y + dy;
-            if (ny < 0 || ny >= height)
+          forStencilTaps(x, y, width, height, 1,
+            [&](std::size_t j, int dx, int dy)
             {
-              continue;
-            }
-            for (int dx = -1; dx <= 1; ++dx)
-            {
-              const int nx = x + dx;
-              if (nx < 0 || nx >= width)
+              if (eye.surface[j].kind != SurfaceNone)
               {
-                continue;
+                const float k = kernel[dx + 1] * kernel[dy + 1];
+                blurredVariance += k * inVariance[j];
+                blurWeight += k;
               }
-              const std::size_t j = static_cast<std::size_t>(ny) * width + nx;
-              if (eye.surface[j].kind == SurfaceNone)
-              {
-                continue;
-              }
-              const float k = kernel[dx + 1] * kernel[dy + 1];
-              blurredVariance += k * inVariance[j];
-              blurWeight += k;
-            }
-          }
+            });
           blurredVariance /= blurWeight;
           const float luminanceScale =
             1.0f / (p.luminanceSigma * std::sqrt(blurredVariance) + 1e-6f);
           const float centreLuminance = luminance(glm::vec3(in[i]));
           glm::vec4 sum(0.0f);
           float varianceSum = 0.0f, weightSum = 0.0f;
-          for (int dy = -1; dy <= 1; ++dy)
-          {
-            const int ny = y + dy * step;
-            if (ny < 0 || ny >= height)
+          forStencilTaps(x, y, width, height, step,
+            [&](std::size_t j, int dx, int dy)
             {
-              continue;
-            }
-            for (int dx = -1; dx <= 1; ++dx)
-            {
-              const int nx = x + dx * step;
-              if (nx < 0 || nx >= width)
-              {
-                continue;
-              }
-              const std::size_t j = static_cast<std::size_t>(ny) * width + nx;
               const Surface& tap = eye.surface[j];
               if (tap.kind == SurfaceNone)
               {
-                continue;
+                return;
               }
               float w = kernel[dx + 1] * kernel[dy + 1];
               if (j != i)
@@ -808,8 +784,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
               sum += w * in[j];
               varianceSum += w * w * inVariance[j];
               weightSum += w;
-            }
-          }
+            });
           out[i] = sum / weightSum;
           outVariance[i] = varianceSum / (weightSum * weightSum);
           if (level == 0 && useHistory)

@@ -3,7 +3,8 @@
 //
 // The denoiser attached to the mapper (SetDenoiser) in a render window, mono and split-
 // viewport stereo: after six window frames the window shows denoised frames, much closer
-// to a 256-spp render than the raw 2-spp frame (at least 6 dB; measured about 12 dB), and in
+// to a 256-spp render than the raw 2-spp frame (at least 6 dB; measured +10.8 dB mono,
+// +12.5 and +11.9 dB for the stereo halves), and in
 // stereo both halves are denoised while the mapper renders each stereo frame once.
 #include "PathTracingTestScene.h"
 #include "vtkStereoSpatioTemporalDenoiser.h"
