@@ -75,7 +75,7 @@ The first frame of each mapper (classification, majorant grid, gradients, textur
 shader compilation) is reported on its own; the median and mean are over the frames after it.
 
 The VTK mappers need an X display; run headless as
-  xvfb-run -a -s "-screen 0 1920x1080x24" holovolume-benchmark
+  xvfb-run -a -s "-screen 0 1920x1080x24 -noreset" holovolume-benchmark
 Without one their rows are skipped.
 
 Data
@@ -688,7 +688,7 @@ int main(int argc, char* argv[])
         Result skipped;
         skipped.Mapper = label;
         skipped.Note =
-          "skipped: " + reason + "; run under xvfb-run -a -s \"-screen 0 1920x1080x24\"";
+          "skipped: " + reason + "; run under xvfb-run -a -s \"-screen 0 1920x1080x24 -noreset\"";
         results.push_back(skipped);
       }
     }
