@@ -1146,16 +1146,33 @@ int vtkPathTracedVolumeMapper::ComputeDisplayImage(int eye, vtkImageData* output
     vtkErrorMacro("ComputeDisplayImage needs eye 0 or 1 and an output vtkImageData.");
     return 0;
   }
-  vtkImageData* image = this->Internals->Eyes[eye].Output;
+  if (!vtkFloatArray::SafeDownCast(
+        this->Internals->Eyes[eye].Output->GetPointData()->GetArray("Radiance")))
+  {
+    vtkErrorMacro("Eye " << eye << " has not been rendered yet; render a frame first.");
+    return 0;
+  }
+  return this->ComputeDisplayImage(this->Internals->Eyes[eye].Output, output);
+}
+
+int vtkPathTracedVolumeMapper::ComputeDisplayImage(vtkImageData* radianceImage, vtkImageData* output)
+{
+  if (!radianceImage || !output || radianceImage == output)
+  {
+    vtkErrorMacro("ComputeDisplayImage needs an image with a \"Radiance\" array and a separate "
+                  "output vtkImageData.");
+    return 0;
+  }
   int dims[3];
-  image->GetDimensions(dims);
+  radianceImage->GetDimensions(dims);
   vtkNew<vtkUnsignedCharArray> pixels;
   pixels->SetName("DisplayRGBA");
   pixels->SetNumberOfComponents(4);
   pixels->SetNumberOfTuples(static_cast<vtkIdType>(dims[0]) * dims[1]);
-  if (!this->ToneMapImage(this->Internals->Eyes[eye].Output, pixels->GetPointer(0)))
+  if (!this->ToneMapImage(radianceImage, pixels->GetPointer(0)))
   {
-    vtkErrorMacro("Eye " << eye << " has not been rendered yet; render a frame first.");
+    vtkErrorMacro("The image has no float RGBA \"Radiance\" array to tone-map; pass an eye "
+                  "image of this mapper or a denoiser's output.");
     return 0;
   }
   output->Initialize();

@@ -330,6 +330,12 @@ public:
   int ComputeDisplayImage(int eye, vtkImageData* output);
 
   /**
+   * Tone-maps any image with this mapper's "Radiance" layout (float RGBA, linear,
+   * premultiplied) the same way, e.g. a vtkStereoSpatioTemporalDenoiser's output eye.
+   */
+  int ComputeDisplayImage(vtkImageData* radianceImage, vtkImageData* output);
+
+  /**
    * Renders into the renderer's viewport (called by vtkVolume). In a stereo render window
    * each pass renders the eye vtkCamera is set up for (any stereo type); both eyes of a frame
    * share its frame index and their images stay available through GetEyeOutput().

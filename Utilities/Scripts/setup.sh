@@ -7,14 +7,16 @@ set -euo pipefail
 HOLOVOLUME_SOURCE_DIR="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 HOLOVOLUME_BUILD_DIR="${HOLOVOLUME_BUILD_DIR:-$HOLOVOLUME_SOURCE_DIR/build}"
 
-# Build tools, VTK 9.1 with Python, the libraries the modules use, the test tools, and the
-# real data: the ch2 head MRI (mricron-data) and CC0 HDR panoramas (blender-data).
+# Build tools, VTK 9.1 with Python, the libraries the modules use (remoting: Boost.Beast,
+# OpenSSL, FFmpeg with x264), the test tools (Chromium and clang's libFuzzer for the remoting
+# tests), and the real data: the ch2 head MRI (mricron-data) and CC0 HDR panoramas (blender-data).
 HOLOVOLUME_PACKAGES=(
   build-essential cmake ninja-build pkg-config
   libvtk9-dev python3-vtk9 libtbb-dev
   libglm-dev libopencv-dev libopenexr-dev libopenimageio-dev openimageio-tools nlohmann-json3-dev
+  libboost-dev libssl-dev openssl libavcodec-dev libavutil-dev libswscale-dev
   libgtest-dev libgmock-dev libbenchmark-dev
-  xvfb xauth libgl1-mesa-dri
+  xvfb xauth libgl1-mesa-dri chromium clang
   mricron-data blender-data
 )
 

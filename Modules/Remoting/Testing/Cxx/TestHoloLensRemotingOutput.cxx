@@ -1,0 +1,376 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+//
+// Loopback: a C++ client drives vtkHoloLensRemotingOutput like the player page does and
+// checks that every frame comes back rendered for the pose it sent, with that pose's own
+// matrices. Geometry of the synthetic volume (0.235 m across, 0.6 m in front of the eyes,
+// 60° vertical field of view, 64 x 48 pixels per eye) gives the expected image positions:
+// - straight view: the volume's image centroid at x = 0.5 of the width (±0.08);
+// - left projection with P[8] = 0.5 (an off-axis frustum, as a HoloLens reports): the left
+//   eye's centroid moves to x = (1 - 0.5) / 2 = 0.25 (±0.08), the right eye's stays at 0.5;
+// - looking away: (almost) nothing covered;
+// - a grab moving the volume 0.1 m to the right: x_ndc shifts by (f / aspect) · 0.1 / 0.6 =
+//   0.217, the centroid by 0.108 of the width;
+// - a cutting plane through the centre keeping +x: about half the coverage, centroid to the right.
+// Then interaction (illumination model, unknown names), H.264 with the denoiser.
+#include "PathTracingTestScene.h"
+#include "vtkHoloLensRemotingOutput.h"
+#include "vtkStereoSpatioTemporalDenoiser.h"
+
+#include "vtkPlaneCollection.h"
+
+#include "hv/remoting/FrameCodec.h"
+#include "hv/remoting/Protocol.h"
+#include "hv/remoting/RemotingClient.h"
+
+#include <cmath>
+#include <iostream>
+
+namespace
+{
+using namespace hv::remoting;
+
+int Failures = 0;
+void Check(bool condition, const std::string& what)
+{
+  std::cout << (condition ? "ok: " : "FAILED: ") << what << "\n";
+  Failures += condition ? 0 : 1;
+}
+
+Matrix4 Perspective(double fovYDegrees, double aspect, double nearPlane, double farPlane)
+{
+  const double f = 1.0 / std::tan(fovYDegrees * vtkMath::Pi() / 360.0);
+  Matrix4 m{};
+  m[0] = f / aspect;
+  m[5] = f;
+  m[10] = (farPlane + nearPlane) / (nearPlane - farPlane);
+  m[11] = -1.0;
+  m[14] = 2.0 * farPlane * nearPlane / (nearPlane - farPlane);
+  return m;
+}
+
+// Eyes at (±0.032, 1.5, 0) looking along -z (or +z when lookingAway).
+PoseMessage MakePose(std::uint64_t poseId, double leftOffAxis = 0.0, bool lookingAway = false)
+{
+  PoseMessage pose;
+  pose.poseId = poseId;
+  pose.mode = "immersive-vr";
+  pose.head = IdentityMatrix();
+  pose.head[13] = 1.5;
+  for (int eye = 0; eye < 2; ++eye)
+  {
+    const double x = eye == 0 ? -0.032 : 0.032;
+    Matrix4 view = IdentityMatrix();
+    const double sign = lookingAway ? -1.0 : 1.0; // a half turn about y
+    view[0] = view[10] = sign;
+    view[12] = -sign * x;
+    view[13] = -1.5;
+    pose.eyes[eye].view = view;
+    pose.eyes[eye].projection = Perspective(60.0, 64.0 / 48.0, 0.05, 10.0);
+  }
+  pose.eyes[0].projection[8] = leftOffAxis;
+  return pose;
+}
+
+struct EyeSummary
+{
+  double coverage = 0.0;  // fraction of pixels brighter than 20/255
+  double centroidX = 0.0; // 0 = left edge, 1 = right edge
+};
+
+struct Frame
+{
+  FrameHeader header;
+  EyeSummary eyes[2];
+  bool valid = false;
+};
+
+EyeSummary Summarize(const std::vector<unsigned char>& rgb, int width, int height)
+{
+  EyeSummary summary;
+  double weight = 0.0, weightedX = 0.0;
+  int covered = 0;
+  for (int y = 0; y < height; ++y)
+  {
+    for (int x = 0; x < width; ++x)
+    {
+      const unsigned char* p = &rgb[(static_cast<std::size_t>(y) * width + x) * 3];
+      const double value = (p[0] + p[1] + p[2]) / 3.0;
+      if (value > 20.0)
+      {
+        ++covered;
+        weight += value;
+        weightedX += value * (x + 0.5) / width;
+      }
+    }
+  }
+  summary.coverage = static_cast<double>(covered) / (width * height);
+  summary.centroidX = weight > 0.0 ? weightedX / weight : -1.0;
+  return summary;
+}
+
+class Viewer
+{
+public:
+  bool Join(vtkHoloLensRemotingOutput* output, bool h264)
+  {
+    std::string reason;
+    if (!this->Client.Connect("127.0.0.1", static_cast<unsigned short>(output->GetBoundPort()),
+          std::string("/ws?token=") + output->GetAccessToken(), false, &reason))
+    {
+      std::cout << "connect: " << reason << "\n";
+      return false;
+    }
+    HelloMessage hello;
+    hello.protocol = 1;
+    hello.client = "loopback";
+    hello.decodesH264 = h264;
+    this->Client.SendText(SerializeHello(hello), &reason);
+    std::string message;
+    ServerTextMessage text;
+    while (this->Client.Receive(&message, 5.0, &reason) == RemotingClient::Received::Text)
+    {
+      if (ParseServerTextMessage(message, &text, &reason) && text.type == "welcome")
+      {
+        this->Welcome = text;
+        return true;
+      }
+    }
+    return false;
+  }
+
+  void Send(const std::string& text)
+  {
+    std::string reason;
+    this->Client.SendText(text, &reason);
+  }
+
+  // Runs the render loop until a frame is published, then reads frames until one for the
+  // given pose id arrives (or nothing more comes).
+  Frame NextFrame(vtkHoloLensRemotingOutput* output, std::uint64_t poseId)
+  {
+    Frame frame;
+    for (int attempt = 0; attempt < 40; ++attempt)
+    {
+      const int published = output->ProcessFrame(0.1);
+      if (published < 0)
+      {
+        return frame;
+      }
+      std::string message, reason;
+      RemotingClient::Received kind;
+      while ((kind = this->Client.Receive(&message, published ? 5.0 : 0.05, &reason)) !=
+        RemotingClient::Received::Timeout)
+      {
+        if (kind == RemotingClient::Received::Closed || kind == RemotingClient::Received::Failed)
+        {
+          return frame;
+        }
+        if (kind != RemotingClient::Received::Binary)
+        {
+          continue;
+        }
+        EyeImage eyes[2];
+        if (!DecodeFrameMessage(message, &frame.header, eyes, &reason))
+        {
+          std::cout << "frame: " << reason << "\n";
+          return frame;
+        }
+        for (int eye = 0; eye < 2; ++eye)
+        {
+          std::vector<unsigned char> rgb;
+          int width = 0, height = 0;
+          const std::string data(eyes[eye].data);
+          const bool decoded = frame.header.codec == Codec::H264
+            ? this->Decoders[eye].Decode(data, &rgb, &width, &height, &reason)
+            : DecodeJpeg(data, &rgb, &width, &height, &reason);
+          if (!decoded)
+          {
+            std::cout << "decode: " << reason << "\n";
+            return frame;
+          }
+          frame.eyes[eye] = Summarize(rgb, width, height);
+        }
+        if (frame.header.poseId == poseId)
+        {
+          frame.valid = true;
+          return frame;
+        }
+      }
+    }
+    return frame;
+  }
+
+  RemotingClient Client;
+  ServerTextMessage Welcome;
+  H264Decoder Decoders[2];
+};
+
+vtkSmartPointer<vtkVolume> MakeScene()
+{
+  vtkNew<vtkPathTracedVolumeMapper> mapper;
+  mapper->SetInputData(pathtracingtest::MakeVolume());
+  mapper->SetEnvironmentMapData(pathtracingtest::MakeSky());
+  mapper->SetSamplesPerPixel(4);
+  mapper->SetExposure(1.0);
+  vtkNew<vtkVolumeProperty> property;
+  pathtracingtest::ApplyTransferFunction(property);
+  auto volume = vtkSmartPointer<vtkVolume>::New();
+  volume->SetMapper(mapper);
+  volume->SetProperty(property);
+  return volume;
+}
+
+void Configure(vtkHoloLensRemotingOutput* output, vtkVolume* volume)
+{
+  output->SetVolume(volume);
+  output->SetPort(0);
+  output->SetEyeSize(64, 48);
+  output->SetWorldUnitsPerMetre(100.0); // the synthetic volume is 23.5 units = 0.235 m across
+  output->SetVolumeOrientation(vtkHoloLensRemotingOutput::ORIENTATION_AS_IS);
+  output->SetInitialVolumeCenter(0.0, 1.5, -0.6);
+  output->SetMaximumStillFrames(0);
+}
+}
+
+int TestHoloLensRemotingOutput(int, char*[])
+{
+  vtkSmartPointer<vtkVolume> volume = MakeScene();
+  vtkNew<vtkVolumeProperty> bonePreset;
+  pathtracingtest::ApplyTransferFunction(bonePreset);
+  vtkNew<vtkHoloLensRemotingOutput> output;
+  Configure(output, volume);
+  output->AddTransferFunctionPreset("soft", volume->GetProperty());
+  output->AddTransferFunctionPreset("bone", bonePreset);
+  if (!output->Start())
+  {
+    std::cout << "FAILED: the output did not start\n";
+    return EXIT_FAILURE;
+  }
+  std::cout << "serving " << output->GetUrl() << "\n";
+  Viewer viewer;
+  Check(viewer.Join(output, false), "the viewer joins and gets a welcome");
+  Check(viewer.Welcome.role == Role::Controller, "the first viewer controls");
+  Check(viewer.Welcome.welcome.presets.size() == 2 && viewer.Welcome.welcome.preset == "soft",
+    "the welcome lists the presets");
+  Check(std::fabs(viewer.Welcome.welcome.volumeCenter[2] + 0.6) < 1e-9, "the welcome says where the volume is");
+
+  const PoseMessage straight = MakePose(1);
+  viewer.Send(SerializePose(straight));
+  Frame frame = viewer.NextFrame(output, 1);
+  Check(frame.valid, "a frame comes back for pose 1");
+  bool sameMatrices = true;
+  for (int eye = 0; eye < 2; ++eye)
+  {
+    for (int i = 0; i < 16; ++i)
+    {
+      sameMatrices = sameMatrices &&
+        std::fabs(frame.header.eyes[eye].view[i] - straight.eyes[eye].view[i]) < 1e-12 &&
+        std::fabs(frame.header.eyes[eye].projection[i] - straight.eyes[eye].projection[i]) < 1e-12;
+    }
+  }
+  Check(sameMatrices, "the frame carries the pose's own view and projection matrices");
+  std::cout << "  straight: coverage " << frame.eyes[0].coverage << ", centroid "
+            << frame.eyes[0].centroidX << " / " << frame.eyes[1].centroidX << "\n";
+  Check(frame.eyes[0].coverage > 0.02 && std::fabs(frame.eyes[0].centroidX - 0.5) < 0.08 &&
+      std::fabs(frame.eyes[1].centroidX - 0.5) < 0.08,
+    "straight view: the volume is in the middle of both eyes");
+  const double straightCoverage = frame.eyes[0].coverage;
+
+  viewer.Send(SerializePose(MakePose(2, 0.5)));
+  frame = viewer.NextFrame(output, 2);
+  std::cout << "  off-axis left: centroid " << frame.eyes[0].centroidX << " / " << frame.eyes[1].centroidX << "\n";
+  Check(frame.valid && std::fabs(frame.eyes[0].centroidX - 0.25) < 0.08 &&
+      std::fabs(frame.eyes[1].centroidX - 0.5) < 0.08,
+    "an asymmetric left frustum moves only the left image, to x = 0.25");
+
+  viewer.Send(SerializePose(MakePose(3, 0.0, true)));
+  frame = viewer.NextFrame(output, 3);
+  Check(frame.valid && frame.eyes[0].coverage < 0.001 && frame.eyes[1].coverage < 0.001,
+    "looking away: no volume in view");
+
+  // A pose older than the newest is ignored; the next frame is still for pose 3.
+  viewer.Send(SerializePose(MakePose(2)));
+  viewer.Send(R"({"type":"interaction","action":"grab-start"})");
+  InteractionMessage grab;
+  grab.action = InteractionAction::GrabMove;
+  grab.transform = IdentityMatrix();
+  grab.transform[12] = 0.1;
+  viewer.Send(SerializeInteraction(grab));
+  viewer.Send(R"({"type":"interaction","action":"grab-end"})");
+  viewer.Send(SerializePose(MakePose(4)));
+  frame = viewer.NextFrame(output, 4);
+  std::cout << "  moved 0.1 m: centroid " << frame.eyes[0].centroidX << ", volume centre x "
+            << frame.header.volumeCenter[0] << "\n";
+  Check(frame.valid && std::fabs(frame.header.volumeCenter[0] - 0.1) < 1e-9,
+    "a grab moves the volume 0.1 m (the frame reports its new centre)");
+  Check(frame.valid && std::fabs(frame.eyes[0].centroidX - 0.608) < 0.06,
+    "the moved volume appears 0.108 of the width to the right");
+
+  InteractionMessage plane;
+  plane.action = InteractionAction::CuttingPlane;
+  plane.enabled = true;
+  plane.origin = { 0.1, 1.5, -0.6 };
+  plane.normal = { 1.0, 0.0, 0.0 };
+  viewer.Send(SerializeInteraction(plane));
+  frame = viewer.NextFrame(output, 4);
+  std::cout << "  cut: coverage " << frame.eyes[0].coverage << " of " << straightCoverage << ", centroid "
+            << frame.eyes[0].centroidX << "\n";
+  Check(frame.valid && frame.eyes[0].coverage > 0.3 * straightCoverage &&
+      frame.eyes[0].coverage < 0.75 * straightCoverage && frame.eyes[0].centroidX > 0.63,
+    "a cutting plane through the centre keeps the +x half");
+  plane.enabled = false;
+  viewer.Send(SerializeInteraction(plane));
+  viewer.Send(R"({"type":"interaction","action":"reset-placement"})");
+  viewer.Send(SerializePose(MakePose(5)));
+  frame = viewer.NextFrame(output, 5);
+  Check(frame.valid && std::fabs(frame.header.volumeCenter[0]) < 1e-9 &&
+      std::fabs(frame.eyes[0].coverage - straightCoverage) < 0.2 * straightCoverage,
+    "reset placement and no cutting plane: the volume is back (interaction sent before a pose "
+    "is in that pose's frame)");
+  viewer.Send(R"({"type":"interaction","action":"illumination","model":"emission-absorption"})");
+  viewer.Send(R"({"type":"interaction","action":"transfer-function","preset":"bone"})");
+  viewer.Send(SerializePose(MakePose(6)));
+  frame = viewer.NextFrame(output, 6);
+  auto* mapper = vtkPathTracedVolumeMapper::SafeDownCast(volume->GetMapper());
+  Check(frame.valid && mapper->GetIlluminationModel() == vtkPathTracedVolumeMapper::EMISSION_ABSORPTION &&
+      volume->GetProperty() == bonePreset.GetPointer() && mapper->GetClippingPlanes()->GetNumberOfItems() == 0,
+    "illumination model and transfer-function preset switched");
+
+  // A malformed message is refused and the stream goes on.
+  viewer.Send(R"({"type":"pose","poseId":7})");
+  viewer.Send(SerializePose(MakePose(8)));
+  frame = viewer.NextFrame(output, 8);
+  Check(frame.valid && output->GetNumberOfRejectedMessages() == 1, "a malformed pose is rejected, the next one renders");
+  std::cout << "  render " << output->GetLastRenderTime() << " ms, encode " << output->GetLastEncodeTime()
+            << " ms, " << output->GetLastJpegBytes() << " JPEG bytes\n";
+  output->Stop();
+
+  // H.264 with the denoiser, a second output.
+  vtkSmartPointer<vtkVolume> volume264 = MakeScene();
+  vtkNew<vtkStereoSpatioTemporalDenoiser> denoiser;
+  vtkNew<vtkHoloLensRemotingOutput> output264;
+  Configure(output264, volume264);
+  output264->SetCodec(vtkHoloLensRemotingOutput::CODEC_H264);
+  output264->SetDenoiser(denoiser);
+  output264->SetMaximumStillFrames(3);
+  Check(output264->Start() == 1, "an H.264 output starts");
+  Viewer h264Viewer;
+  Check(h264Viewer.Join(output264, true) && h264Viewer.Welcome.codec == Codec::H264,
+    "a viewer that decodes H.264 gets H.264");
+  h264Viewer.Send(SerializePose(MakePose(10)));
+  frame = h264Viewer.NextFrame(output264, 10);
+  Check(frame.valid && frame.header.keyFrame && frame.header.codecString.rfind("avc1.42", 0) == 0,
+    "the first H.264 frame is a key frame of the baseline profile");
+  Check(frame.valid && std::fabs(frame.eyes[0].centroidX - 0.5) < 0.08 && frame.eyes[0].coverage > 0.02,
+    "the H.264 frame decodes to the volume in the middle");
+  // Still frames keep coming for the denoiser to converge, as delta frames.
+  const Frame still = h264Viewer.NextFrame(output264, 10);
+  Check(still.valid && !still.header.keyFrame && still.header.frameId > frame.header.frameId,
+    "a still view keeps converging with delta frames");
+  Check(output264->GetLastDenoiseTime() > 0.0, "the denoiser runs on every frame");
+  std::cout << "  H.264: " << output264->GetLastH264Bytes() << " bytes, denoise "
+            << output264->GetLastDenoiseTime() << " ms\n";
+  output264->Stop();
+  return Failures == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
+}
