@@ -8,6 +8,8 @@
 // vtkEnvironmentSyncedLight -> the mapper). Later versions grow this into the full
 // mixed-reality pipeline.
 #include "vtkHoloVolumeScene.h"
+#include "vtkHoloLensRemotingOutput.h"
+#include "vtkStereoSpatioTemporalDenoiser.h"
 
 #include "vtkCallbackCommand.h"
 #include "vtkCommand.h"
@@ -44,6 +46,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -96,6 +99,21 @@ struct Options
   std::string HeadsetPosition = "viewer";
   double RelightThreshold = 0.05;
   bool SaveEnvironment = false;
+  // Serve mode (--serve): stream to a WebXR player instead of writing images.
+  bool Serve = false;
+  int Port = 8080;
+  std::string Listen = "127.0.0.1";
+  bool AllowRemote = false;
+  std::string Token;
+  std::string Certificate;
+  std::string PrivateKey;
+  std::string Codec = "jpeg";
+  int EyeWidth = 1440;
+  int EyeHeight = 936;
+  bool Denoise = true;
+  double ServeSeconds = 0.0;
+  int ServeFrames = 0;
+  std::string WebRoot;
 };
 
 void PrintHelp()
@@ -167,6 +185,24 @@ Rendering
       --azimuth DEG          camera azimuth around the head (0 = face on) [35]
       --seed N               random seed [0]
       --threads N            worker threads [all cores]
+
+Streaming to a headset (Documentation/Remoting.md)
+      --serve                serve the WebXR player and stream both eyes to it, rendered
+                             for the headset's own pose (HoloLens 2 browser, any WebXR
+                             headset, or side-by-side stereo in a desktop browser); prints
+                             the URL to open, with its access token
+      --port N               HTTP(S)/WebSocket port; 0 picks a free one [8080]
+      --listen ADDRESS       address to listen on [127.0.0.1]; anything else needs
+      --allow-remote         (a real headset on the LAN needs both, and TLS:)
+      --certificate FILE     PEM certificate (chain) for HTTPS/WSS
+      --private-key FILE     its PEM private key
+      --token TOKEN          access token (16+ characters) [random, printed at start]
+      --codec NAME           jpeg or h264 (clients without WebCodecs get JPEG) [jpeg]
+      --eye-size WxH         pixels per eye [1440x936, the HoloLens 2's]
+      --no-denoiser          stream the raw 2-spp frames
+      --serve-seconds S      stop after S seconds [run until Ctrl-C]
+      --serve-frames N       stop after N frames
+      --web-root DIR         serve the player from DIR [the module's web/ folder]
 
 Output
   -o, --output DIR           output folder [holovolume-output]
@@ -296,6 +332,40 @@ bool ParseArguments(int argc, char* argv[], Options& options)
       options.SaveBuffers = true;
     else if (argument == "--camera")
       options.Camera = value("--camera");
+    else if (argument == "--serve")
+      options.Serve = true;
+    else if (argument == "--port")
+      options.Port = std::atoi(value("--port"));
+    else if (argument == "--listen")
+      options.Listen = value("--listen");
+    else if (argument == "--allow-remote")
+      options.AllowRemote = true;
+    else if (argument == "--token")
+      options.Token = value("--token");
+    else if (argument == "--certificate")
+      options.Certificate = value("--certificate");
+    else if (argument == "--private-key")
+      options.PrivateKey = value("--private-key");
+    else if (argument == "--codec")
+      options.Codec = value("--codec");
+    else if (argument == "--eye-size")
+    {
+      const std::string size = value("--eye-size");
+      if (std::sscanf(size.c_str(), "%dx%d", &options.EyeWidth, &options.EyeHeight) != 2 ||
+        options.EyeWidth < 2 || options.EyeHeight < 2)
+      {
+        std::cerr << "holovolume: --eye-size needs WIDTHxHEIGHT, e.g. 1440x936\n";
+        return false;
+      }
+    }
+    else if (argument == "--no-denoiser")
+      options.Denoise = false;
+    else if (argument == "--serve-seconds")
+      options.ServeSeconds = std::atof(value("--serve-seconds"));
+    else if (argument == "--serve-frames")
+      options.ServeFrames = std::atoi(value("--serve-frames"));
+    else if (argument == "--web-root")
+      options.WebRoot = value("--web-root");
     else if (argument == "--calibration")
       options.Calibration = value("--calibration");
     else if (argument == "--camera-frames")
@@ -324,6 +394,22 @@ bool ParseArguments(int argc, char* argv[], Options& options)
     options.Frames < 1 || options.Bounces < 1)
   {
     std::cerr << "holovolume: width, height, spp, frames and bounces must be positive\n";
+    return false;
+  }
+  if (options.Codec != "jpeg" && options.Codec != "h264")
+  {
+    std::cerr << "holovolume: --codec must be jpeg or h264\n";
+    return false;
+  }
+  if (options.Port < 0 || options.Port > 65535)
+  {
+    std::cerr << "holovolume: --port must be 0-65535\n";
+    return false;
+  }
+  if (options.Serve && !options.Camera.empty())
+  {
+    std::cerr << "holovolume: --serve streams under an HDR panorama; live camera lighting "
+                 "(--camera) is not streamed yet\n";
     return false;
   }
   if (options.ToneMapping != "aces" && options.ToneMapping != "clamp")
@@ -970,6 +1056,116 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
 }
 }
 
+vtkHoloLensRemotingOutput* ServingOutput = nullptr;
+
+void StopServing(int)
+{
+  if (ServingOutput)
+  {
+    ServingOutput->RequestStop(); // only sets an atomic flag: safe in a signal handler
+  }
+}
+
+// Serve mode: the head (or any volume) streamed to a WebXR player in the headset's world.
+int Serve(const Options& options, vtkPathTracedVolumeMapper* mapper, vtkVolume* volume,
+  double scalarMaximum)
+{
+  // The headset's world has +Y up, like the panorama: only the optional yaw remains.
+  vtkNew<vtkMatrix4x4> environmentToWorld;
+  const double yaw = vtkMath::RadiansFromDegrees(options.EnvironmentYaw);
+  environmentToWorld->SetElement(0, 0, std::cos(yaw));
+  environmentToWorld->SetElement(0, 2, std::sin(yaw));
+  environmentToWorld->SetElement(2, 0, -std::sin(yaw));
+  environmentToWorld->SetElement(2, 2, std::cos(yaw));
+  mapper->SetEnvironmentToWorldMatrix(environmentToWorld);
+  mapper->RemoveObservers(vtkCommand::ProgressEvent);
+
+  // Presets the viewer can switch between: the whole head, a translucent head, and the
+  // tissue inside the skin (T1: brain 70-130, skin and fat from ~35).
+  vtkNew<vtkVolumeProperty> translucent, inner;
+  holovolume::ApplyHeadMRIPreset(translucent, scalarMaximum);
+  holovolume::ApplyHeadMRIPreset(inner, scalarMaximum);
+  const double s = scalarMaximum / 255.0;
+  vtkNew<vtkPiecewiseFunction> translucentOpacity, innerOpacity;
+  translucentOpacity->AddPoint(0.0, 0.0);
+  translucentOpacity->AddPoint(28.0 * s, 0.0);
+  translucentOpacity->AddPoint(40.0 * s, 0.08);
+  translucentOpacity->AddPoint(255.0 * s, 0.3);
+  translucent->SetScalarOpacity(translucentOpacity);
+  innerOpacity->AddPoint(0.0, 0.0);
+  innerOpacity->AddPoint(75.0 * s, 0.0);
+  innerOpacity->AddPoint(95.0 * s, 0.9);
+  innerOpacity->AddPoint(255.0 * s, 0.98);
+  inner->SetScalarOpacity(innerOpacity);
+
+  vtkNew<vtkHoloLensRemotingOutput> output;
+  output->SetVolume(volume);
+  output->AddTransferFunctionPreset("head-mri", volume->GetProperty());
+  output->AddTransferFunctionPreset("translucent", translucent);
+  output->AddTransferFunctionPreset("inner-tissue", inner);
+  vtkNew<vtkStereoSpatioTemporalDenoiser> denoiser;
+  if (options.Denoise)
+  {
+    output->SetDenoiser(denoiser);
+  }
+  output->SetEyeSize(options.EyeWidth, options.EyeHeight);
+  output->SetPort(options.Port);
+  output->SetBindAddress(options.Listen.c_str());
+  output->SetAllowRemoteConnections(options.AllowRemote);
+  output->SetAccessToken(options.Token.empty() ? nullptr : options.Token.c_str());
+  output->SetCertificateFile(options.Certificate.empty() ? nullptr : options.Certificate.c_str());
+  output->SetPrivateKeyFile(options.PrivateKey.empty() ? nullptr : options.PrivateKey.c_str());
+  output->SetWebRoot(options.WebRoot.empty() ? nullptr : options.WebRoot.c_str());
+  output->SetCodec(options.Codec == "h264" ? vtkHoloLensRemotingOutput::CODEC_H264
+                                           : vtkHoloLensRemotingOutput::CODEC_JPEG);
+  if (!output->Start())
+  {
+    return 1;
+  }
+  std::cout << "Streaming    " << options.EyeWidth << "x" << options.EyeHeight << " per eye, "
+            << options.SamplesPerPixel << " spp, " << (options.Denoise ? "denoised" : "raw") << ", "
+            << options.Codec << "\n"
+            << "Open " << output->GetUrl() << "\n"
+            << "  in the headset's browser (Enter AR/VR) or a desktop browser (side by side).\n"
+            << (options.Listen == "127.0.0.1"
+                   ? "  Only this machine can connect; a headset needs --listen, --allow-remote and TLS.\n"
+                   : "")
+            << std::flush;
+  ServingOutput = output;
+  std::signal(SIGINT, StopServing);
+  std::signal(SIGTERM, StopServing);
+  double renderSum = 0.0, denoiseSum = 0.0, encodeSum = 0.0;
+  vtkNew<vtkCallbackCommand> onFrame;
+  struct Totals
+  {
+    vtkHoloLensRemotingOutput* Output;
+    double *Render, *Denoise, *Encode;
+  } totals{ output, &renderSum, &denoiseSum, &encodeSum };
+  onFrame->SetClientData(&totals);
+  onFrame->SetCallback([](vtkObject*, unsigned long, void* clientData, void*) {
+    auto* t = static_cast<Totals*>(clientData);
+    *t->Render += t->Output->GetLastRenderTime();
+    *t->Denoise += t->Output->GetLastDenoiseTime();
+    *t->Encode += t->Output->GetLastEncodeTime();
+  });
+  output->AddObserver(vtkCommand::UpdateDataEvent, onFrame);
+  const int frames = output->Run(options.ServeSeconds, options.ServeFrames);
+  ServingOutput = nullptr;
+  if (frames < 0)
+  {
+    return 1;
+  }
+  const double n = std::max(1, frames);
+  std::printf("Served %d frames to %llu poses; mean per stereo frame: render %.1f ms, denoise "
+              "%.1f ms, encode %.1f ms; %llu frames dropped for slow clients, %llu messages "
+              "rejected\n",
+    frames, static_cast<unsigned long long>(output->GetNumberOfPosesReceived()), renderSum / n,
+    denoiseSum / n, encodeSum / n, static_cast<unsigned long long>(output->GetNumberOfDroppedFrames()),
+    static_cast<unsigned long long>(output->GetNumberOfRejectedMessages()));
+  output->Stop();
+  return 0;
+}
+
 int main(int argc, char* argv[])
 {
   Options options;
@@ -1072,6 +1268,10 @@ int main(int argc, char* argv[])
   vtkNew<vtkVolume> volume;
   volume->SetMapper(mapper);
   volume->SetProperty(property);
+  if (options.Serve)
+  {
+    return Serve(options, mapper, volume, range[1] > 0 ? range[1] : 255.0);
+  }
 
   vtkNew<vtkCamera> camera;
   holovolume::FrameHead(camera, volumeData, options.Azimuth);

@@ -146,17 +146,6 @@ Matrix4 LookAt(const double eye[3], const double target[3])
   return view;
 }
 
-Matrix4 Perspective(double fovYDegrees, double aspect, double nearPlane, double farPlane)
-{
-  const double f = 1.0 / std::tan(fovYDegrees * vtkMath::Pi() / 360.0);
-  Matrix4 m{};
-  m[0] = f / aspect;
-  m[5] = f;
-  m[10] = (farPlane + nearPlane) / (nearPlane - farPlane);
-  m[11] = -1.0;
-  m[14] = 2.0 * farPlane * nearPlane / (nearPlane - farPlane);
-  return m;
-}
 }
 
 struct vtkHoloLensRemotingOutput::Internals
@@ -659,7 +648,7 @@ int vtkHoloLensRemotingOutput::ProcessFrame(double waitSeconds)
       const double position[3] = { eye == 0 ? -0.032 : 0.032, 1.6, 0.0 };
       eyes[eye].view = LookAt(position, center);
       eyes[eye].projection =
-        Perspective(60.0, static_cast<double>(this->EyeSize[0]) / this->EyeSize[1], 0.05, 20.0);
+        hv::remoting::PerspectiveProjection(60.0, static_cast<double>(this->EyeSize[0]) / this->EyeSize[1], 0.05, 20.0);
     }
   }
   vtkNew<vtkMatrix4x4> views[2], projections[2];
@@ -669,7 +658,12 @@ int vtkHoloLensRemotingOutput::ProcessFrame(double waitSeconds)
     ToVTK(ProjectionToWorldUnits(eyes[eye].projection, s), projections[eye]);
   }
 
-  // 3. Render, denoise, tone-map.
+  // 3. Render, denoise, tone-map. With a denoiser every frame is a fresh 2-spp estimate: the
+  // denoiser accumulates over time instead of the mapper (as in a render window).
+  if (this->Denoiser)
+  {
+    mapper->ProgressiveAccumulationOff();
+  }
   const double renderStart = NowMs();
   if (!mapper->RenderStereoFrame(this->Volume, views[0], projections[0], views[1], projections[1],
         this->EyeSize[0], this->EyeSize[1], nullptr))

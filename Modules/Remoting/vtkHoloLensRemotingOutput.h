@@ -74,6 +74,8 @@ public:
   ///@{
   /**
    * Optional denoiser, run on every frame (both eyes, with the mapper's auxiliary buffers).
+   * With one, the mapper's progressive accumulation is switched off: the denoiser
+   * accumulates over time instead.
    */
   void SetDenoiser(vtkStereoSpatioTemporalDenoiser* denoiser);
   vtkGetObjectMacro(Denoiser, vtkStereoSpatioTemporalDenoiser);

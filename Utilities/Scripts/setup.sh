@@ -40,6 +40,22 @@ holovolume_install_dependencies() {
   $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -q "${missing[@]}"
 }
 
+# The WebXR player's browser test drives Debian's Chromium with playwright-core and Meta's iwer
+# headset emulator, both from the npm registry at the versions package-lock.json pins.
+holovolume_install_web_test_tools() {
+  local dir="$HOLOVOLUME_SOURCE_DIR/Testing/WebXR"
+  if [ -d "$dir/node_modules/iwer" ] && [ -d "$dir/node_modules/playwright-core" ]; then
+    return 0
+  fi
+  if ! command -v npm >/dev/null; then
+    local sudo=""
+    [ "$(id -u)" -ne 0 ] && sudo="sudo"
+    $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -q nodejs npm
+  fi
+  echo "HoloVolume: installing the WebXR test tools (npm ci in Testing/WebXR)"
+  (cd "$dir" && npm ci --no-audit --no-fund --loglevel=error)
+}
+
 holovolume_build() {
   local extra=("$@")
   mkdir -p "$HOLOVOLUME_BUILD_DIR"

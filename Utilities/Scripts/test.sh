@@ -5,6 +5,7 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 holovolume_install_dependencies
+holovolume_install_web_test_tools
 mkdir -p "$HOLOVOLUME_BUILD_DIR"
 holovolume_build
 cd "$HOLOVOLUME_BUILD_DIR"

@@ -749,7 +749,7 @@ TEST(PanoramaFrameGrabber, NetworkStreamReconnectsAfterDrop)
   // Meanwhile the pipeline still gets the last frame at once.
   const auto before = std::chrono::steady_clock::now();
   const std::int64_t lastBeforeDrop = grabber.latest().Index;
-  EXPECT_LT(elapsedMs(before), 20.0);
+  EXPECT_LT(elapsedMs(before), 500.0); // a copy, never a wait for the reconnecting stream (seconds)
 
   ASSERT_EQ(server.start(path, port, bytesPerSecond, true), port);
   const auto restarted = std::chrono::steady_clock::now();

@@ -33,18 +33,6 @@ Matrix4 Translation(double x, double y, double z)
   return m;
 }
 
-// A symmetric OpenGL perspective projection, column-major.
-Matrix4 Perspective(double fovYDegrees, double aspect, double nearPlane, double farPlane)
-{
-  const double f = 1.0 / std::tan(fovYDegrees * M_PI / 360.0);
-  Matrix4 m{};
-  m[0] = f / aspect;
-  m[5] = f;
-  m[10] = (farPlane + nearPlane) / (nearPlane - farPlane);
-  m[11] = -1.0;
-  m[14] = 2.0 * farPlane * nearPlane / (nearPlane - farPlane);
-  return m;
-}
 
 std::string PoseText(const std::string& views)
 {
@@ -61,9 +49,9 @@ std::string View(const char* eye, const Matrix4& view, const Matrix4& projection
 
 TEST(Protocol, ParsesAPoseWithAsymmetricFrustums)
 {
-  Matrix4 left = Perspective(60, 1.5, 0.1, 10);
+  Matrix4 left = PerspectiveProjection(60, 1.5, 0.1, 10);
   left[8] = 0.12; // an off-axis frustum, as a HoloLens 2 reports
-  const Matrix4 right = Perspective(60, 1.5, 0.1, 10);
+  const Matrix4 right = PerspectiveProjection(60, 1.5, 0.1, 10);
   const std::string text = PoseText("[" + View("right", Translation(-0.032, -1.6, 0), right) + "," +
     View("left", Translation(0.032, -1.6, 0), left) + "]");
   ClientMessage message;
@@ -84,8 +72,8 @@ TEST(Protocol, SerializedClientMessagesParseBack)
   pose.poseId = 123456789012ull;
   pose.mode = "desktop";
   pose.head = Translation(1, 2, 3);
-  pose.eyes[0] = { Translation(-1, -2, -3), Perspective(50, 1, 0.05, 20) };
-  pose.eyes[1] = { Translation(-1.06, -2, -3), Perspective(50, 1, 0.05, 20) };
+  pose.eyes[0] = { Translation(-1, -2, -3), PerspectiveProjection(50, 1, 0.05, 20) };
+  pose.eyes[1] = { Translation(-1.06, -2, -3), PerspectiveProjection(50, 1, 0.05, 20) };
   ClientMessage message;
   std::string reason;
   ASSERT_TRUE(ParseClientMessage(SerializePose(pose), &message, &reason)) << reason;
@@ -127,7 +115,7 @@ TEST(Protocol, SerializedClientMessagesParseBack)
 
 TEST(Protocol, RejectsWhatTheProtocolDoesNotAllowWithAReason)
 {
-  const Matrix4 projection = Perspective(60, 1, 0.1, 10);
+  const Matrix4 projection = PerspectiveProjection(60, 1, 0.1, 10);
   const std::string goodViews = "[" + View("left", IdentityMatrix(), projection) + "," +
     View("right", IdentityMatrix(), projection) + "]";
   Matrix4 singular = IdentityMatrix();
@@ -190,7 +178,7 @@ TEST(Protocol, RejectsWhatTheProtocolDoesNotAllowWithAReason)
 
 TEST(Protocol, MatrixInverseAndProduct)
 {
-  Matrix4 m = Perspective(70, 1.3, 0.2, 30);
+  Matrix4 m = PerspectiveProjection(70, 1.3, 0.2, 30);
   m[8] = -0.2;
   m[9] = 0.1;
   Matrix4 inverse;
@@ -220,8 +208,8 @@ TEST(Protocol, FrameContainerRoundTripAndDamage)
   header.height = 32;
   header.renderMs = 12.5;
   header.volumeCenter = { 0.0, 1.4, -0.8 };
-  header.eyes[0] = { Translation(0.03, 0, 0), Perspective(60, 2, 0.1, 10) };
-  header.eyes[1] = { Translation(-0.03, 0, 0), Perspective(60, 2, 0.1, 10) };
+  header.eyes[0] = { Translation(0.03, 0, 0), PerspectiveProjection(60, 2, 0.1, 10) };
+  header.eyes[1] = { Translation(-0.03, 0, 0), PerspectiveProjection(60, 2, 0.1, 10) };
   const std::string left = "left-eye-bytes", right = std::string("right\0eye", 9);
   const std::string message = EncodeFrameMessage(header, left, right);
   ASSERT_EQ(message.substr(0, 4), "HVF1");

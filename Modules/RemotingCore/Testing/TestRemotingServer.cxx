@@ -394,7 +394,8 @@ TEST_F(ServerTest, ASlowClientGetsTheNewestFrameAndNeverBlocksPublishing)
   }
   const double publishMs =
     std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-  EXPECT_LT(publishMs, 200.0) << "publishing waited for the client";
+  // A blocking publish would never return (nobody reads); 1 s leaves room for a loaded machine.
+  EXPECT_LT(publishMs, 1000.0) << "publishing waited for the client";
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
 
   int received = 0;

@@ -12,10 +12,12 @@ extern "C"
 #include <libavutil/error.h>
 #include <libavutil/frame.h>
 #include <libavutil/imgutils.h>
+#include <libavutil/log.h>
 #include <libavutil/opt.h>
 #include <libswscale/swscale.h>
 }
 
+#include <algorithm>
 #include <cstdio>
 
 namespace hv
@@ -151,6 +153,12 @@ bool H264Encoder::Open(int width, int height, int framesPerSecond, long bitsPerS
 {
   this->Impl.reset();
   this->CodecString.clear();
+  // x264 prints its CPU capabilities and profile at INFO level for every stream: keep
+  // FFmpeg's log to errors unless the application chose a level itself.
+  if (av_log_get_level() == AV_LOG_INFO)
+  {
+    av_log_set_level(AV_LOG_ERROR);
+  }
   const AVCodec* codec = avcodec_find_encoder_by_name("libx264");
   if (!codec)
   {
@@ -262,6 +270,7 @@ bool H264Encoder::Encode(const RGBAImageView& image, bool forceKeyFrame, std::st
 
 struct H264Decoder::Internals
 {
+  std::vector<std::uint8_t> Converted;
   AVCodecContext* Context = nullptr;
   AVFrame* Frame = nullptr;
   AVPacket* Packet = nullptr;
@@ -329,11 +338,21 @@ bool H264Decoder::Decode(const std::string& accessUnit, std::vector<unsigned cha
   impl.Scaler = sws_getCachedContext(impl.Scaler, *width, *height,
     static_cast<AVPixelFormat>(impl.Frame->format), *width, *height, AV_PIX_FMT_RGB24,
     SWS_BILINEAR, nullptr, nullptr, nullptr);
-  rgb->resize(static_cast<std::size_t>(*width) * *height * 3);
-  std::uint8_t* planes[4] = { rgb->data(), nullptr, nullptr, nullptr };
-  int strides[4] = { 3 * *width, 0, 0, 0 };
+  // libswscale's SIMD paths write whole aligned blocks: convert into rows padded to 64 bytes
+  // (plus slack at the end), then copy the pixels out.
+  const int rowBytes = 3 * *width;
+  const int stride = (rowBytes + 63) & ~63;
+  impl.Converted.resize(static_cast<std::size_t>(stride) * (*height + 1));
+  std::uint8_t* planes[4] = { impl.Converted.data(), nullptr, nullptr, nullptr };
+  int strides[4] = { stride, 0, 0, 0 };
   sws_scale(impl.Scaler, impl.Frame->data, impl.Frame->linesize, 0, *height, planes, strides);
   av_frame_unref(impl.Frame);
+  rgb->resize(static_cast<std::size_t>(rowBytes) * *height);
+  for (int y = 0; y < *height; ++y)
+  {
+    std::copy_n(impl.Converted.data() + static_cast<std::size_t>(y) * stride, rowBytes,
+      rgb->data() + static_cast<std::size_t>(y) * rowBytes);
+  }
   return true;
 }
 }

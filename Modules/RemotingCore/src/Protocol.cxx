@@ -459,6 +459,18 @@ bool Invert(const Matrix4& m, Matrix4* inverse)
   return true;
 }
 
+Matrix4 PerspectiveProjection(double fovYDegrees, double aspect, double nearPlane, double farPlane)
+{
+  const double f = 1.0 / std::tan(fovYDegrees * 3.14159265358979323846 / 360.0);
+  Matrix4 m{};
+  m[0] = f / aspect;
+  m[5] = f;
+  m[10] = (farPlane + nearPlane) / (nearPlane - farPlane);
+  m[11] = -1.0;
+  m[14] = 2.0 * farPlane * nearPlane / (nearPlane - farPlane);
+  return m;
+}
+
 const char* CodecName(Codec codec)
 {
   return codec == Codec::H264 ? "h264" : "jpeg";

@@ -14,6 +14,7 @@ import vtkmodules.vtkRenderingVolume  # noqa: F401
 from .holoImagingDenoise import vtkStereoSpatioTemporalDenoiser  # noqa: F401
 from .holoRenderingPathTracing import vtkPathTracedVolumeMapper  # noqa: F401
 from .holoIOEnvironment import vtkEnvironmentMapReader  # noqa: F401
+from .holoRemoting import vtkHoloLensRemotingOutput  # noqa: F401
 from .holoLighting import (  # noqa: F401
     vtkDualFisheyeToEquirectangular,
     vtkEnvironmentSyncedLight,
@@ -27,4 +28,5 @@ __all__ = [
     "vtkPanoramaVideoSource",
     "vtkDualFisheyeToEquirectangular",
     "vtkEnvironmentSyncedLight",
+    "vtkHoloLensRemotingOutput",
 ]

@@ -37,17 +37,6 @@ void Check(bool condition, const std::string& what)
   Failures += condition ? 0 : 1;
 }
 
-Matrix4 Perspective(double fovYDegrees, double aspect, double nearPlane, double farPlane)
-{
-  const double f = 1.0 / std::tan(fovYDegrees * vtkMath::Pi() / 360.0);
-  Matrix4 m{};
-  m[0] = f / aspect;
-  m[5] = f;
-  m[10] = (farPlane + nearPlane) / (nearPlane - farPlane);
-  m[11] = -1.0;
-  m[14] = 2.0 * farPlane * nearPlane / (nearPlane - farPlane);
-  return m;
-}
 
 // Eyes at (±0.032, 1.5, 0) looking along -z (or +z when lookingAway).
 PoseMessage MakePose(std::uint64_t poseId, double leftOffAxis = 0.0, bool lookingAway = false)
@@ -66,7 +55,7 @@ PoseMessage MakePose(std::uint64_t poseId, double leftOffAxis = 0.0, bool lookin
     view[12] = -sign * x;
     view[13] = -1.5;
     pose.eyes[eye].view = view;
-    pose.eyes[eye].projection = Perspective(60.0, 64.0 / 48.0, 0.05, 10.0);
+    pose.eyes[eye].projection = PerspectiveProjection(60.0, 64.0 / 48.0, 0.05, 10.0);
   }
   pose.eyes[0].projection[8] = leftOffAxis;
   return pose;

@@ -29,6 +29,8 @@ Matrix4 IdentityMatrix();
 Matrix4 Multiply(const Matrix4& a, const Matrix4& b);
 // General inverse; returns false for a singular matrix.
 bool Invert(const Matrix4& m, Matrix4* inverse);
+// A symmetric OpenGL perspective projection (what a desktop client or a default view uses).
+Matrix4 PerspectiveProjection(double fovYDegrees, double aspect, double nearPlane, double farPlane);
 
 enum class Role
 {

@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Runs the WebXR player end to end: starts `holovolume --serve` on a free port with the head
+# MRI, points test_player.mjs (headless Chromium, iwer as the headset) at the URL it prints,
+# stops the server and checks that the server received the page's poses.
+#   run_player_test.sh HOLOVOLUME_BINARY MODE CODEC [SCREENSHOT]
+set -euo pipefail
+holovolume="$1"
+mode="$2"
+codec="$3"
+screenshot="${4:-}"
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+log="$(mktemp)"
+trap 'kill "$server" 2>/dev/null || true; rm -f "$log"' EXIT
+
+"$holovolume" --serve --port 0 --codec "$codec" --eye-size 160x104 --serve-seconds 170 >"$log" 2>&1 &
+server=$!
+url=""
+for _ in $(seq 1 600); do
+  url="$(grep -o 'http://127\.0\.0\.1:[0-9]*/?token=[0-9a-f]*' "$log" | head -n 1 || true)"
+  [ -n "$url" ] && break
+  kill -0 "$server" 2>/dev/null || break
+  sleep 0.1
+done
+if [ -z "$url" ]; then
+  echo "FAIL: the server printed no URL"
+  cat "$log"
+  exit 1
+fi
+echo "server: $url"
+status=0
+node "$here/test_player.mjs" --url "$url" --mode "$mode" --codec "$codec" \
+  ${screenshot:+--screenshot "$screenshot"} || status=$?
+kill -TERM "$server"
+wait "$server" || true
+echo "--- server log"
+cat "$log"
+# The server's own account: it received poses (the page's) and rendered frames for them.
+if ! grep -Eq 'Served [1-9][0-9]* frames to [1-9][0-9]* poses' "$log"; then
+  echo "FAIL: the server did not report frames rendered for received poses"
+  status=1
+fi
+exit "$status"
