@@ -7,7 +7,6 @@
 
 #include "vtkCommand.h"
 #include "vtkImageData.h"
-#include "vtkMath.h"
 #include "vtkMatrix4x4.h"
 #include "vtkNew.h"
 #include "vtkObjectFactory.h"
@@ -21,6 +20,10 @@
 #include "hv/remoting/FrameCodec.h"
 #include "hv/remoting/RemotingServer.h"
 
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -108,44 +111,11 @@ Matrix4 ProjectionToWorldUnits(const Matrix4& projection, double s)
   return result;
 }
 
+// The determinant of the linear part: the cube of a placement's uniform scale.
 double Determinant3(const Matrix4& m)
 {
-  return m[0] * (m[5] * m[10] - m[9] * m[6]) - m[4] * (m[1] * m[10] - m[9] * m[2]) +
-    m[8] * (m[1] * m[6] - m[5] * m[2]);
+  return glm::determinant(glm::dmat3(glm::make_mat4(m.data())));
 }
-
-// A right-handed look-at view matrix (OpenGL: the eye looks along -Z), column-major.
-Matrix4 LookAt(const double eye[3], const double target[3])
-{
-  double forward[3] = { target[0] - eye[0], target[1] - eye[1], target[2] - eye[2] };
-  const double length = std::sqrt(forward[0] * forward[0] + forward[1] * forward[1] + forward[2] * forward[2]);
-  for (double& f : forward)
-  {
-    f /= length > 0 ? length : 1.0;
-  }
-  const double up[3] = { 0.0, 1.0, 0.0 };
-  double side[3] = { forward[1] * up[2] - forward[2] * up[1], forward[2] * up[0] - forward[0] * up[2],
-    forward[0] * up[1] - forward[1] * up[0] };
-  const double sideLength = std::sqrt(side[0] * side[0] + side[1] * side[1] + side[2] * side[2]);
-  for (double& v : side)
-  {
-    v /= sideLength > 0 ? sideLength : 1.0;
-  }
-  const double trueUp[3] = { side[1] * forward[2] - side[2] * forward[1],
-    side[2] * forward[0] - side[0] * forward[2], side[0] * forward[1] - side[1] * forward[0] };
-  Matrix4 view = hv::remoting::IdentityMatrix();
-  for (int i = 0; i < 3; ++i)
-  {
-    view[i * 4 + 0] = side[i];
-    view[i * 4 + 1] = trueUp[i];
-    view[i * 4 + 2] = -forward[i];
-  }
-  view[12] = -(side[0] * eye[0] + side[1] * eye[1] + side[2] * eye[2]);
-  view[13] = -(trueUp[0] * eye[0] + trueUp[1] * eye[1] + trueUp[2] * eye[2]);
-  view[14] = forward[0] * eye[0] + forward[1] * eye[1] + forward[2] * eye[2];
-  return view;
-}
-
 }
 
 struct vtkHoloLensRemotingOutput::Internals
@@ -646,7 +616,8 @@ int vtkHoloLensRemotingOutput::ProcessFrame(double waitSeconds)
     for (int eye = 0; eye < 2; ++eye)
     {
       const double position[3] = { eye == 0 ? -0.032 : 0.032, 1.6, 0.0 };
-      eyes[eye].view = LookAt(position, center);
+      const glm::dmat4 view = glm::lookAt(glm::make_vec3(position), glm::make_vec3(center), glm::dvec3(0, 1, 0));
+      std::copy_n(glm::value_ptr(view), 16, eyes[eye].view.begin());
       eyes[eye].projection =
         hv::remoting::PerspectiveProjection(60.0, static_cast<double>(this->EyeSize[0]) / this->EyeSize[1], 0.05, 20.0);
     }

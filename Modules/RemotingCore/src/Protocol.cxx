@@ -2,8 +2,12 @@
 // Copyright (c) 2026 the HoloVolume developers.
 #include "hv/remoting/Protocol.h"
 
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+#include <glm/mat4x4.hpp>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -254,9 +258,9 @@ bool ParsePose(const FieldReader& fields, PoseMessage* pose)
     {
       return fields.Fail("each entry of 'views' must be an object");
     }
-    FieldReader eyeFields(view, "pose: views", nullptr);
+    const FieldReader viewFields(view, "pose", nullptr);
     std::string eyeName;
-    const json* eye = eyeFields.Find("eye");
+    const json* eye = viewFields.Find("eye");
     if (!eye || !eye->is_string())
     {
       return fields.Fail("each view needs 'eye': \"left\" or \"right\"");
@@ -268,10 +272,9 @@ bool ParsePose(const FieldReader& fields, PoseMessage* pose)
       return fields.Fail("'views' must hold one \"left\" and one \"right\" entry");
     }
     seen[index] = true;
-    FieldReader matrixFields(view, "pose", nullptr);
-    if (!fields.InvertibleMatrix(matrixFields.Find("view"), eyeName + " view", &pose->eyes[index].view) ||
+    if (!fields.InvertibleMatrix(viewFields.Find("view"), eyeName + " view", &pose->eyes[index].view) ||
       !fields.InvertibleMatrix(
-        matrixFields.Find("projection"), eyeName + " projection", &pose->eyes[index].projection))
+        viewFields.Find("projection"), eyeName + " projection", &pose->eyes[index].projection))
     {
       return false;
     }
@@ -372,36 +375,29 @@ Matrix4 IdentityMatrix()
   return m;
 }
 
+// The protocol's matrices have GLM's layout (column-major), so GLM does the algebra.
+namespace
+{
+glm::dmat4 ToGlm(const Matrix4& m)
+{
+  return glm::make_mat4(m.data());
+}
+
+Matrix4 FromGlm(const glm::dmat4& m)
+{
+  Matrix4 result;
+  std::copy_n(glm::value_ptr(m), 16, result.begin());
+  return result;
+}
+}
+
 Matrix4 Multiply(const Matrix4& a, const Matrix4& b)
 {
-  Matrix4 c{};
-  for (int column = 0; column < 4; ++column)
-  {
-    for (int row = 0; row < 4; ++row)
-    {
-      double sum = 0.0;
-      for (int k = 0; k < 4; ++k)
-      {
-        sum += a[k * 4 + row] * b[column * 4 + k];
-      }
-      c[column * 4 + row] = sum;
-    }
-  }
-  return c;
+  return FromGlm(ToGlm(a) * ToGlm(b));
 }
 
 bool Invert(const Matrix4& m, Matrix4* inverse)
 {
-  // Gauss-Jordan elimination with partial pivoting on [m | I], in double precision.
-  double a[4][8];
-  for (int row = 0; row < 4; ++row)
-  {
-    for (int column = 0; column < 4; ++column)
-    {
-      a[row][column] = m[column * 4 + row];
-      a[row][column + 4] = row == column ? 1.0 : 0.0;
-    }
-  }
   double scale = 0.0;
   for (double value : m)
   {
@@ -411,64 +407,19 @@ bool Invert(const Matrix4& m, Matrix4* inverse)
   {
     return false;
   }
-  for (int column = 0; column < 4; ++column)
+  // Singular relative to the matrix's own magnitude (a projection's entries can be tiny).
+  const double determinant = glm::determinant(ToGlm(m));
+  if (!(std::fabs(determinant) > 1e-12 * scale * scale * scale * scale))
   {
-    int pivot = column;
-    for (int row = column + 1; row < 4; ++row)
-    {
-      if (std::fabs(a[row][column]) > std::fabs(a[pivot][column]))
-      {
-        pivot = row;
-      }
-    }
-    if (std::fabs(a[pivot][column]) < 1e-12 * scale)
-    {
-      return false;
-    }
-    if (pivot != column)
-    {
-      for (int k = 0; k < 8; ++k)
-      {
-        std::swap(a[pivot][k], a[column][k]);
-      }
-    }
-    const double divisor = a[column][column];
-    for (int k = 0; k < 8; ++k)
-    {
-      a[column][k] /= divisor;
-    }
-    for (int row = 0; row < 4; ++row)
-    {
-      if (row != column)
-      {
-        const double factor = a[row][column];
-        for (int k = 0; k < 8; ++k)
-        {
-          a[row][k] -= factor * a[column][k];
-        }
-      }
-    }
+    return false;
   }
-  for (int row = 0; row < 4; ++row)
-  {
-    for (int column = 0; column < 4; ++column)
-    {
-      (*inverse)[column * 4 + row] = a[row][column + 4];
-    }
-  }
+  *inverse = FromGlm(glm::inverse(ToGlm(m)));
   return true;
 }
 
 Matrix4 PerspectiveProjection(double fovYDegrees, double aspect, double nearPlane, double farPlane)
 {
-  const double f = 1.0 / std::tan(fovYDegrees * 3.14159265358979323846 / 360.0);
-  Matrix4 m{};
-  m[0] = f / aspect;
-  m[5] = f;
-  m[10] = (farPlane + nearPlane) / (nearPlane - farPlane);
-  m[11] = -1.0;
-  m[14] = 2.0 * farPlane * nearPlane / (nearPlane - farPlane);
-  return m;
+  return FromGlm(glm::perspective(glm::radians(fovYDegrees), aspect, nearPlane, farPlane));
 }
 
 const char* CodecName(Codec codec)

@@ -476,10 +476,6 @@ private:
       this->CurrentFrame.reset();
       std::lock_guard<std::mutex> lock(this->Server->Mutex);
       ++this->Server->Counters.framesSent;
-      if (this->Server->Controller == this || this->Server->Counters.sendMs == 0.0)
-      {
-        this->Server->Counters.sendMs = this->LastSendMs;
-      }
     }
     this->Write();
   }

@@ -61,7 +61,6 @@ struct ServerCounters
   std::uint64_t framesSent = 0;
   std::uint64_t droppedFrames = 0;
   double poseToDisplayMs = 0.0; // the controller's latest report, 0 before one
-  double sendMs = 0.0;          // the controller's (or any client's) latest frame send time
 };
 
 class RemotingServer
