@@ -326,6 +326,7 @@ int vtkHoloLensRemotingOutput::Start()
   options.privateKeyFile = this->PrivateKeyFile ? this->PrivateKeyFile : "";
   options.webRoot = this->WebRoot;
   options.maximumMessageBytes = static_cast<std::size_t>(this->MaximumMessageSize);
+  options.maximumFramesInFlight = this->MaximumFramesInFlight;
   options.codec = this->Codec == CODEC_H264 ? hv::remoting::Codec::H264 : hv::remoting::Codec::Jpeg;
   if (this->LogConnections)
   {
@@ -679,6 +680,7 @@ int vtkHoloLensRemotingOutput::ProcessFrame(double waitSeconds)
   std::string reason;
   std::string encoded[2];
   hv::remoting::PublishedFrame frame;
+  frame.frameId = header.frameId;
   this->LastJpegBytes = this->LastH264Bytes = 0;
   if (server.NeedsCodec(hv::remoting::Codec::Jpeg))
   {
@@ -821,6 +823,7 @@ void vtkHoloLensRemotingOutput::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "Codec: " << (this->Codec == CODEC_H264 ? "H.264" : "JPEG") << "\n";
   os << indent << "JpegQuality: " << this->JpegQuality << "\n";
   os << indent << "H264BitRate: " << this->H264BitRate << "\n";
+  os << indent << "MaximumFramesInFlight: " << this->MaximumFramesInFlight << "\n";
   os << indent << "MaximumMessageSize: " << this->MaximumMessageSize << "\n";
   os << indent << "LogConnections: " << this->LogConnections << "\n";
   os << indent << "Running: " << this->IsRunning() << "\n";

@@ -147,6 +147,14 @@ public:
   /** Target H.264 bit rate per eye, bits per second, at 60 frames per second. */
   vtkSetClampMacro(H264BitRate, int, 100000, VTK_INT_MAX);
   vtkGetMacro(H264BitRate, int);
+
+  /**
+   * Flow control for clients that acknowledge decoded frames (the player does): at most this
+   * many frames sent and not yet acknowledged per client; the newest frame waits for room.
+   * Default 2: one decoding while the next travels. Takes effect at Start().
+   */
+  vtkSetClampMacro(MaximumFramesInFlight, int, 1, 16);
+  vtkGetMacro(MaximumFramesInFlight, int);
   vtkSetClampMacro(MaximumMessageSize, int, 1024, 16 << 20);
   vtkGetMacro(MaximumMessageSize, int);
   /** Print connections, rejected requests and messages to stderr (on by default). */
@@ -230,6 +238,7 @@ protected:
   int Codec = CODEC_JPEG;
   int JpegQuality = 85;
   int H264BitRate = 20000000;
+  int MaximumFramesInFlight = 2;
   int MaximumMessageSize = 65536;
   bool LogConnections = true;
   vtkTypeUInt64 FrameId = 0;

@@ -23,6 +23,12 @@ const BRIGHT = 40;            // a channel value above this counts as "not black
 const MIN_BRIGHT_FRACTION = 0.01;
 const CHANGED = 30;           // a channel difference above this counts as "changed"
 const MIN_CHANGED_FRACTION = 0.005;
+// Typical on two cores with 160x104 eyes: 80-200 ms. A backlog of queued frames grew past 2 s
+// within seconds before the page acknowledged decoded frames (flow control).
+const MAX_POSE_TO_DISPLAY_MS = 1000;
+// The status panel (0.40 m × 0.10 m at 1.25 m) covers about 10 % of each eye's 29° view; its
+// text and backing change about 4.6 % of the view by more than CHANGED.
+const MIN_PANEL_FRACTION = 0.02;
 
 const { values: options } = parseArgs({
   options: {
@@ -193,11 +199,17 @@ async function analyse(pngs) {
       const result = { width, height, left: leftBright / n, right: rightBright / n, leftRight: leftRightChanged / n };
       if (images[1]) {
         const second = (await pixels(images[1])).data;
-        let count = 0;
+        let count = 0, left = 0, right = 0;
         for (let i = 0; i < data.length; i += 4) {
-          if (Math.max(Math.abs(data[i] - second[i]), Math.abs(data[i + 1] - second[i + 1]), Math.abs(data[i + 2] - second[i + 2])) > changed) count++;
+          if (Math.max(Math.abs(data[i] - second[i]), Math.abs(data[i + 1] - second[i + 1]), Math.abs(data[i + 2] - second[i + 2])) > changed) {
+            count++;
+            if ((i / 4) % width < half) left++;
+            else right++;
+          }
         }
         result.changedFromSecond = count / (width * height);
+        result.changedLeftFromSecond = left / n;
+        result.changedRightFromSecond = right / n;
       }
       return result;
     }, { images: pngs.map((png) => png.toString('base64')), bright: BRIGHT, changed: CHANGED });
@@ -217,6 +229,10 @@ function checkStereoImage(label, stats) {
 
 // Browser and pages
 
+// HoloLens 2-like: additive AR with hand tracking; the emulated views get the HoloLens 2's
+// vertical field of view (about 29°; iwer's default is 90°), so the screenshots show what the
+// wearer would see, the status panel's size and legibility included.
+const HOLOLENS_FIELD_OF_VIEW_Y = (29 * Math.PI) / 180;
 const HOLOLENS_LIKE = {
   name: 'HoloLens-like test headset',
   controllerConfig: undefined,
@@ -234,11 +250,11 @@ async function newPlayerPage({ withXR }) {
   const context = await browser.newContext({ viewport: VIEWPORT, deviceScaleFactor: 1 });
   if (withXR) {
     await context.addInitScript({ path: IWER_SCRIPT });
-    await context.addInitScript((profile) => {
-      const device = new window.IWER.XRDevice(profile, { stereoEnabled: true, ipd: 0.064 });
+    await context.addInitScript(({ profile, fovy }) => {
+      const device = new window.IWER.XRDevice(profile, { stereoEnabled: true, ipd: 0.064, fovy });
       device.installRuntime({ forceInstall: true });
       window.xrDevice = device;
-    }, HOLOLENS_LIKE);
+    }, { profile: HOLOLENS_LIKE, fovy: HOLOLENS_FIELD_OF_VIEW_Y });
   }
   const page = await context.newPage();
   page.pageErrors = [];
@@ -337,6 +353,17 @@ async function runXR() {
     visited.push(left);
   }
 
+  // The server renders these small frames far faster than the page decodes them; without
+  // flow control they queue in the page's decoders and the latency grows by seconds a minute.
+  const latencies = [];
+  for (let i = 0; i < 10; i++) {
+    await page.waitForTimeout(200);
+    latencies.push((await player(page)).lastPoseToDisplayMs);
+  }
+  const worstLatency = Math.max(...latencies.map((ms) => ms ?? Infinity));
+  check('xr: pose-to-display latency stays bounded (no frame backlog)', worstLatency < MAX_POSE_TO_DISPLAY_MS,
+    `worst of ${latencies.length} samples over 2 s: ${worstLatency.toFixed(0)} ms (limit ${MAX_POSE_TO_DISPLAY_MS} ms)`);
+
   // A malformed message gets an `error`, the connection stays open and frames keep coming.
   const before = await page.evaluate(() => {
     const p = window.holovolumePlayer;
@@ -356,10 +383,40 @@ async function runXR() {
   await audit.run(page);
   audit.report();
 
-  const shot = await analyse([await capture(page, options.screenshot)]);
+  // The views alone first: the status panel would count as "volume" pixels.
+  await page.evaluate(() => window.holovolumePlayer.showHeadsetStatus(false));
+  await xrFrames(page, 3);
+  const viewsOnly = await capture(page, options.screenshot);
+  const shot = await analyse([viewsOnly]);
   checkStereoImage(`xr: screenshot ${shot.width}x${shot.height}`, shot);
+  await checkHeadsetStatus(page, viewsOnly);
   await checkGrab(page);
   await checkNoErrors(page, 'xr', answer ? [answer.seq] : []);
+}
+
+// Inside the immersive session the DOM is hidden: the status lines (latency included) are drawn
+// on a panel in the world, 1.25 m ahead of the viewer, in both eyes.
+async function checkHeadsetStatus(page, viewsOnly) {
+  await page.evaluate(() => window.holovolumePlayer.showHeadsetStatus(true));
+  await xrFrames(page, 3);
+  // The text refreshes four times a second: wait for one that carries a measured latency.
+  const status = await until(page, () => {
+    const s = window.holovolumePlayer.headsetStatus;
+    return s.text && /pose-to-display \d+ ms/.test(s.text) ? s : null;
+  });
+  check('xr: headset status panel shows connection and pose-to-display latency', status !== null &&
+    status.text.startsWith('connected'), status ? JSON.stringify(status.text.split('\n').slice(0, 2).join(' | ')) : 'no latency figure in the panel text');
+  if (!status) return;
+  const head = await page.evaluate(() => { const p = window.xrDevice.position; return [p.x, p.y, p.z]; });
+  const away = distance(status.position, head);
+  check('xr: headset status panel is at a comfortable distance', away > 1.1 && away < 1.4,
+    `${away.toFixed(2)} m from the head (placed 1.25 m ahead, eased toward its place)`);
+  const withPanel = await capture(page, options.screenshot && options.screenshot.replace(/\.png$/, '-status.png'));
+  const difference = await analyse([withPanel, viewsOnly]);
+  check('xr: headset status panel drawn in the left eye', difference.changedLeftFromSecond > MIN_PANEL_FRACTION,
+    `${percent(difference.changedLeftFromSecond)} of the left view changed`);
+  check('xr: headset status panel drawn in the right eye', difference.changedRightFromSecond > MIN_PANEL_FRACTION,
+    `${percent(difference.changedRightFromSecond)} of the right view changed`);
 }
 
 // Waits until the page has run a few more XR frames (each sends a pose).

@@ -1,6 +1,9 @@
 // Turns parsed frames into per-eye images that WebGL can upload: ImageBitmap for JPEG,
 // VideoFrame for H.264 (one VideoDecoder per eye, since each eye is its own stream).
 // Decoding is asynchronous and may finish out of order; the owner keeps the newest frameId.
+// Every frame pushed is reported finished once it was decoded, dropped or skipped: the owner
+// acknowledges that to the server, which sends no more than a small window ahead of it, so no
+// backlog builds up in the decoders (a fast renderer would otherwise queue seconds there).
 // Images are top row first; the reprojection shader flips, not the upload.
 
 export const canDecodeH264 = typeof VideoDecoder === 'function';
@@ -8,9 +11,11 @@ export const canDecodeH264 = typeof VideoDecoder === 'function';
 export class FrameDecoder {
   // onDecoded({header, images: {left, right}}): the receiver owns the images and must close them.
   // onError(message): a frame could not be decoded.
-  constructor(onDecoded, onError) {
+  // onFinished(frameId): this frame and all before it are done with (cumulative).
+  constructor(onDecoded, onError, onFinished = () => {}) {
     this.onDecoded = onDecoded;
     this.onError = onError;
+    this.onFinished = onFinished;
     this.video = { left: null, right: null };
     this.codecString = null;
     this.pending = new Map(); // frameId -> {header, left, right} while the two eyes decode
@@ -27,7 +32,10 @@ export class FrameDecoder {
   push(header, eyes) {
     if (header.codec === 'jpeg') this.decodeJpeg(header, eyes);
     else if (header.codec === 'h264') this.decodeH264(header, eyes);
-    else this.onError(`frame ${header.frameId}: unknown codec '${header.codec}'`);
+    else {
+      this.onError(`frame ${header.frameId}: unknown codec '${header.codec}'`);
+      this.onFinished(header.frameId);
+    }
   }
 
   async decodeJpeg(header, eyes) {
@@ -36,18 +44,21 @@ export class FrameDecoder {
     if (results.some((r) => r.status === 'rejected')) {
       results.forEach((r) => r.status === 'fulfilled' && r.value.close());
       this.onError(`frame ${header.frameId}: JPEG decode failed`);
-      return;
+    } else {
+      this.onDecoded({ header, images: { left: results[0].value, right: results[1].value } });
     }
-    this.onDecoded({ header, images: { left: results[0].value, right: results[1].value } });
+    this.onFinished(header.frameId);
   }
 
   decodeH264(header, eyes) {
     if (!canDecodeH264) {
       this.onError('H.264 frame but this browser has no VideoDecoder');
+      this.onFinished(header.frameId);
       return;
     }
     if (typeof header.codecString !== 'string') {
       this.onError(`frame ${header.frameId}: H.264 without codecString`);
+      this.onFinished(header.frameId);
       return;
     }
     if (header.codecString !== this.codecString) {
@@ -57,6 +68,7 @@ export class FrameDecoder {
     }
     if (this.needKeyFrame && !header.keyFrame) {
       this.skippedWaitingForKey++;
+      this.onFinished(header.frameId);
       return;
     }
     if (!this.video.left) this.openVideo();
@@ -100,6 +112,7 @@ export class FrameDecoder {
       }
     }
     this.onDecoded({ header: entry.header, images: { left: entry.left, right: entry.right } });
+    this.onFinished(frame.timestamp);
   }
 
   videoError(eye, error) {
@@ -113,10 +126,13 @@ export class FrameDecoder {
       if (decoder && decoder.state !== 'closed') decoder.close();
       this.video[eye] = null;
     }
-    for (const entry of this.pending.values()) {
+    let newest = -1;
+    for (const [id, entry] of this.pending) {
       entry.left?.close();
       entry.right?.close();
+      newest = Math.max(newest, id);
     }
     this.pending.clear();
+    if (newest >= 0) this.onFinished(newest); // abandoned: never coming out of the decoder
   }
 }

@@ -8,15 +8,18 @@ import { FrameDecoder, canDecodeH264 } from './decoder.js';
 import { Reprojector } from './reprojection.js';
 import { OrbitCamera } from './desktop.js';
 import { GrabTracker } from './grab.js';
-import { getTranslation, normalize, sub } from './mat4.js';
+import { StatusPanel } from './statuspanel.js';
+import { getTranslation, multiply, normalize, sub } from './mat4.js';
 
 const SENT_POSES_KEPT = 4096;    // about a minute of XR frames: a slow server answers old poses
 const DRAWN_POSE_IDS_KEPT = 256;
 const ERRORS_KEPT = 50;
 const MAX_BUFFERED_BYTES = 64 * 1024; // skip a pose rather than queue behind a slow link
 const FPS_WINDOW_MS = 2000;
+const RECENT_ERROR_MS = 10000;
 
-const requestedRole = new URLSearchParams(location.search).get('role') === 'spectator' ? 'spectator' : 'controller';
+const pageOptions = new URLSearchParams(location.search);
+const requestedRole = pageOptions.get('role') === 'spectator' ? 'spectator' : 'controller';
 const codecs = canDecodeH264 ? ['jpeg', 'h264'] : ['jpeg'];
 
 const ui = {
@@ -49,6 +52,7 @@ const state = {
   lastSentPoseId: null,
   lastHead: null,
   newestFrameId: -1,       // newest frame handed to the GPU; older decodes are dropped
+  finishedFrameId: -1,     // newest frame acknowledged to the server (flow control)
   frame: null,             // {header, eyes, drawn} of the frame in the textures
   lastFrame: null,
   drawnPoseIds: [],
@@ -68,6 +72,10 @@ window.addEventListener('unhandledrejection', (event) => recordError('page', eve
 const gl = ui.canvas.getContext('webgl2', { antialias: false, alpha: true, premultipliedAlpha: true });
 if (!gl) recordError('page', 'WebGL2 is not available');
 const reprojector = gl ? new Reprojector(gl) : null;
+// The status lines inside an immersive session (the DOM is not visible there); `?status=off`
+// in the page's URL hides them.
+const statusPanel = gl ? new StatusPanel(gl) : null;
+let headsetStatusVisible = pageOptions.get('status') !== 'off';
 let xrMode = null; // 'immersive-ar' or 'immersive-vr' while a session runs
 let cameraMoved = true;
 let needsDraw = true;
@@ -89,6 +97,7 @@ const connection = new Connection(protocol.webSocketURL(location), {
     // A restarted server counts frames from scratch, and H.264 must restart at a key frame.
     state.newestFrameId = -1;
     decoder.reset();
+    state.finishedFrameId = -1; // after the reset, which finishes the abandoned frames
     connection.send(protocol.hello(requestedRole, codecs));
   },
   onText(text) {
@@ -126,6 +135,9 @@ function onWelcome(welcome) {
   state.connection = 'connected';
   state.connects++;
   connection.established();
+  // Turns the server's flow control on before the first frame: it sends no more than a couple
+  // of frames ahead of what the decoders have finished.
+  connection.send(protocol.decoded(0));
   if (firstWelcome && Array.isArray(welcome.volumeCenter) && Number.isFinite(welcome.volumeRadius)) {
     camera.aimAt(welcome.volumeCenter, welcome.volumeRadius);
   }
@@ -150,7 +162,11 @@ const decoder = new FrameDecoder(({ header, images }) => {
   state.framesDecoded++;
   state.frame = { header, eyes, drawn: false };
   needsDraw = true;
-}, (message) => recordError('decode', message));
+}, (message) => recordError('decode', message), (frameId) => {
+  if (frameId <= state.finishedFrameId || state.connection !== 'connected') return;
+  state.finishedFrameId = frameId;
+  connection.send(protocol.decoded(frameId));
+});
 
 setInterval(() => connection.send(protocol.ping(performance.now())), 1000);
 
@@ -258,6 +274,7 @@ async function enterXR(mode) {
   const grab = new GrabTracker(sendInteraction);
   grab.attach(session);
   xrMode = mode;
+  statusPanel?.setText(statusText());
   session.addEventListener('end', () => {
     grab.end();
     xrMode = null;
@@ -266,7 +283,7 @@ async function enterXR(mode) {
   });
   const onFrame = (time, frame) => {
     session.requestAnimationFrame(onFrame);
-    drawXRFrame(frame, mode, referenceSpace, grab);
+    drawXRFrame(time, frame, mode, referenceSpace, grab);
   };
   session.requestAnimationFrame(onFrame);
 }
@@ -280,7 +297,7 @@ function stereoViews(views) {
   }));
 }
 
-function drawXRFrame(frame, mode, referenceSpace, grab) {
+function drawXRFrame(time, frame, mode, referenceSpace, grab) {
   const viewerPose = frame.getViewerPose(referenceSpace);
   if (!viewerPose) return;
   sendPose(mode, viewerPose.transform.matrix, stereoViews(viewerPose.views));
@@ -289,12 +306,20 @@ function drawXRFrame(frame, mode, referenceSpace, grab) {
   gl.bindFramebuffer(gl.FRAMEBUFFER, layer.framebuffer);
   gl.clearColor(0, 0, 0, 0);
   gl.clear(gl.COLOR_BUFFER_BIT);
-  if (!reprojector.hasFrame) return;
-  for (const view of viewerPose.views) {
-    reprojector.drawEye(view.eye === 'right' ? 'right' : 'left', layer.getViewport(view),
-      view.transform.inverse.matrix, view.projectionMatrix);
+  if (reprojector.hasFrame) {
+    for (const view of viewerPose.views) {
+      reprojector.drawEye(view.eye === 'right' ? 'right' : 'left', layer.getViewport(view),
+        view.transform.inverse.matrix, view.projectionMatrix);
+    }
   }
-  frameDrawn();
+  // Also before the first frame: "connecting" is worth seeing in the headset.
+  if (headsetStatusVisible && statusPanel) {
+    statusPanel.follow(viewerPose.transform.matrix, time);
+    for (const view of viewerPose.views) {
+      statusPanel.draw(layer.getViewport(view), multiply(view.projectionMatrix, view.transform.inverse.matrix));
+    }
+  }
+  if (reprojector.hasFrame) frameDrawn();
 }
 
 async function offerXR(button, mode) {
@@ -350,16 +375,21 @@ function statusText() {
   const stats = state.stats ?? {};
   const recent = state.arrivals.filter((t) => t > now - FPS_WINDOW_MS).length;
   const poseToDisplay = welcome?.role === 'controller' ? state.lastPoseToDisplayMs : stats.poseToDisplayMs;
-  const lastError = state.errors.at(-1);
+  // A recent error only: in a headset a stale one would stay in view for the whole session.
+  const lastError = state.errors.findLast((e) => e.time > now - RECENT_ERROR_MS);
   return [
     `${connectionLine} · ${welcome?.role ?? requestedRole} · ${welcome?.codec ?? '–'} · ${xrMode ?? 'desktop'}`,
-    `frames ${fmt((recent * 1000) / FPS_WINDOW_MS, 1)} fps · pose→display ${fmt(poseToDisplay)} ms · rtt ${fmt(state.rttMs)} ms`,
+    `frames ${fmt((recent * 1000) / FPS_WINDOW_MS, 1)} fps · pose-to-display ${fmt(poseToDisplay)} ms · rtt ${fmt(state.rttMs)} ms`,
     `server render ${fmt(stats.renderMs)} · denoise ${fmt(stats.denoiseMs)} · encode ${fmt(stats.encodeMs)} · send ${fmt(stats.sendMs, 1)} ms`,
     `dropped ${fmt(stats.droppedFrames)} · clients ${fmt(stats.clients)}`,
     ...(lastError ? [`last error (${lastError.source}): ${lastError.message}`] : []),
   ].join('\n');
 }
-setInterval(() => { ui.status.textContent = statusText(); }, 250);
+setInterval(() => {
+  const text = statusText();
+  ui.status.textContent = text;
+  if (xrMode) statusPanel?.setText(text);
+}, 250);
 
 // Read-only mirrors for tests and debugging: every value is a copy of the player's own state.
 
@@ -387,6 +417,12 @@ Object.defineProperty(window, 'holovolumePlayer', {
     get errors() { return copy(state.errors); },
     // The pose message sent with this poseId ({sentAt, mode, views}), while still kept.
     sentPose(poseId) { return copy(state.sentPoses.get(poseId)); },
+    // The status panel drawn in the headset: {visible, text, position (world, m), normal}.
+    get headsetStatus() {
+      return { visible: headsetStatusVisible, text: statusPanel?.text ?? null,
+        position: copy(statusPanel?.position), panelToWorld: statusPanel?.panelToWorld ? Array.from(statusPanel.panelToWorld) : null };
+    },
+    showHeadsetStatus(visible) { headsetStatusVisible = Boolean(visible); },
     // Sends raw text on the socket, to test the server's answer to malformed messages.
     debugSend(text) { return connection.sendText(String(text)); },
   }),

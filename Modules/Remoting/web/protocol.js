@@ -28,6 +28,9 @@ export const interaction = (action, fields = {}) => ({ type: 'interaction', acti
 export const displayed = (frameId, poseId, poseToDisplayMs) =>
   ({ type: 'displayed', frameId, poseId, poseToDisplayMs });
 
+// Flow control: every frame up to frameId is decoded or dropped (cumulative).
+export const decoded = (frameId) => ({ type: 'decoded', frameId });
+
 export const ping = (clientTime) => ({ type: 'ping', clientTime });
 
 // Returns the message object, or throws when it is not a JSON object with a string `type`.

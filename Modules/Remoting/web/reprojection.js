@@ -5,6 +5,7 @@
 // rendered eye's projection·view to find the texel. With identical matrices every hit point
 // projects back onto its own pixel, so the plain image comes out.
 
+import { createImageTexture, createProgram } from './glprogram.js';
 import { invert, multiply, normalize } from './mat4.js';
 
 const VERTEX_SHADER = `#version 300 es
@@ -51,40 +52,15 @@ void main() {
   outColor = vec4(color, max(color.r, max(color.g, color.b)));
 }`;
 
-function compile(gl, type, source) {
-  const shader = gl.createShader(type);
-  gl.shaderSource(shader, source);
-  gl.compileShader(shader);
-  if (!gl.getShaderParameter(shader, gl.COMPILE_STATUS)) {
-    throw new Error(`shader: ${gl.getShaderInfoLog(shader)}`);
-  }
-  return shader;
-}
-
 export class Reprojector {
   constructor(gl) {
     this.gl = gl;
-    const program = gl.createProgram();
-    gl.attachShader(program, compile(gl, gl.VERTEX_SHADER, VERTEX_SHADER));
-    gl.attachShader(program, compile(gl, gl.FRAGMENT_SHADER, FRAGMENT_SHADER));
-    gl.linkProgram(program);
-    if (!gl.getProgramParameter(program, gl.LINK_STATUS)) {
-      throw new Error(`program: ${gl.getProgramInfoLog(program)}`);
-    }
-    this.program = program;
-    this.uniforms = Object.fromEntries(
-      ['uImage', 'uCurrentClipToWorld', 'uFrameWorldToClip', 'uPlanePoint', 'uPlaneNormal']
-        .map((name) => [name, gl.getUniformLocation(program, name)]));
+    ({ program: this.program, uniforms: this.uniforms } = createProgram(gl, VERTEX_SHADER, FRAGMENT_SHADER,
+      ['uImage', 'uCurrentClipToWorld', 'uFrameWorldToClip', 'uPlanePoint', 'uPlaneNormal']));
     this.vertexArray = gl.createVertexArray();
     this.eyes = {};
     for (const eye of ['left', 'right']) {
-      const texture = gl.createTexture();
-      gl.bindTexture(gl.TEXTURE_2D, texture);
-      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, gl.LINEAR);
-      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, gl.LINEAR);
-      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_S, gl.CLAMP_TO_EDGE);
-      gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_T, gl.CLAMP_TO_EDGE);
-      this.eyes[eye] = { texture, worldToClip: null, planeNormal: null };
+      this.eyes[eye] = { texture: createImageTexture(gl), worldToClip: null, planeNormal: null };
     }
     this.planePoint = null;
   }

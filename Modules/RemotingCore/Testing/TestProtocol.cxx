@@ -111,6 +111,10 @@ TEST(Protocol, SerializedClientMessagesParseBack)
 
   ASSERT_TRUE(ParseClientMessage(SerializeDisplayed({ 5, 4, 81.5 }), &message, &reason)) << reason;
   EXPECT_DOUBLE_EQ(message.displayed.poseToDisplayMs, 81.5);
+
+  ASSERT_TRUE(ParseClientMessage(SerializeDecoded({ 12 }), &message, &reason)) << reason;
+  EXPECT_EQ(message.type, ClientMessageType::Decoded);
+  EXPECT_EQ(message.decoded.frameId, 12u);
 }
 
 TEST(Protocol, RejectsWhatTheProtocolDoesNotAllowWithAReason)
@@ -157,6 +161,7 @@ TEST(Protocol, RejectsWhatTheProtocolDoesNotAllowWithAReason)
     { R"({"type":"interaction","action":"transfer-function","preset":")" + std::string(100, 'x') + "\"}",
       "'preset' is longer than 64 characters" },
     { R"({"type":"displayed","frameId":1,"poseId":1})", "'poseToDisplayMs' must be a number" },
+    { R"({"type":"decoded","frameId":-3})", "'frameId' must be an integer >= 0" },
     { std::string(20, '[') + std::string(20, ']'), "nested deeper than 8 levels" },
   };
   for (const auto& testCase : cases)

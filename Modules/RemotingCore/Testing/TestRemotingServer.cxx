@@ -144,6 +144,53 @@ protected:
     return false;
   }
 
+  // The frameId of the next frame, skipping text messages; 0 when none comes in time.
+  std::uint64_t NextFrameId(RemotingClient& client, double timeout)
+  {
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout);
+    std::string message, reason;
+    while (std::chrono::steady_clock::now() < deadline)
+    {
+      const auto kind = client.Receive(&message, 0.05, &reason);
+      if (kind == RemotingClient::Received::Binary)
+      {
+        FrameHeader header;
+        EyeImage eyes[2];
+        EXPECT_TRUE(DecodeFrameMessage(message, &header, eyes, &reason)) << reason;
+        return header.frameId;
+      }
+      if (kind == RemotingClient::Received::Closed || kind == RemotingClient::Received::Failed)
+      {
+        ADD_FAILURE() << "connection ended: " << reason;
+        break;
+      }
+    }
+    return 0;
+  }
+  void Acknowledge(RemotingClient& client, std::uint64_t frameId)
+  {
+    std::string reason;
+    EXPECT_TRUE(client.SendText(SerializeDecoded({ frameId }), &reason)) << reason;
+  }
+  // A server with flow control (window, timeout) and a controller that has turned it on.
+  RemotingServer& StartWithFlowControl(
+    RemotingClient& client, int window, double timeoutSeconds, Codec codec = Codec::Jpeg)
+  {
+    ServerOptions options;
+    options.codec = codec;
+    options.maximumFramesInFlight = window;
+    options.frameAcknowledgementTimeoutSeconds = timeoutSeconds;
+    RemotingServer& server = this->StartServer(options);
+    this->Join(client, Role::Controller, codec == Codec::H264);
+    // Turns flow control on. The server answers messages in order, so the pong of a ping sent
+    // after the acknowledgement proves it was handled (no frames yet for NextText to skip).
+    this->Acknowledge(client, 0);
+    std::string reason;
+    EXPECT_TRUE(client.SendText(R"({"type":"ping","clientTime":1})", &reason)) << reason;
+    this->NextText(client, "pong");
+    return server;
+  }
+
   fs::path WebRoot;
   std::unique_ptr<RemotingServer> Server;
   std::mutex LogMutex;
@@ -164,6 +211,7 @@ PublishedFrame MakeFrame(std::uint64_t frameId, std::uint64_t poseId, std::size_
   header.eyes[0] = header.eyes[1] = { IdentityMatrix(), IdentityMatrix() };
   const std::string payload(payloadBytes, static_cast<char>('a' + frameId % 26));
   PublishedFrame frame;
+  frame.frameId = frameId;
   auto message = std::make_shared<const std::string>(EncodeFrameMessage(header, payload, payload));
   (h264 ? frame.h264Message : frame.jpegMessage) = message;
   frame.h264KeyFrame = keyFrame;
@@ -449,6 +497,82 @@ TEST_F(ServerTest, H264ClientsWaitForAKeyFrameAndTheServerIsAskedForOne)
   ASSERT_TRUE(DecodeFrameMessage(message, &header, eyes, &reason)) << reason;
   EXPECT_EQ(header.frameId, 2u);
   EXPECT_TRUE(header.keyFrame);
+}
+
+// A browser reads its socket at once and queues what it cannot decode yet, so a renderer
+// faster than the page would build seconds of latency there. A client that acknowledges
+// frames has at most the window unacknowledged; the newest frame waits for room.
+TEST_F(ServerTest, AnAcknowledgingClientHasAtMostTheWindowOfFramesInFlight)
+{
+  RemotingClient client;
+  RemotingServer& server = this->StartWithFlowControl(client, 2, 600.0);
+  for (std::uint64_t id = 1; id <= 10; ++id)
+  {
+    server.Publish(MakeFrame(id, id, 1000));
+    ASSERT_TRUE(server.Flush());
+  }
+  EXPECT_EQ(this->NextFrameId(client, 5.0), 1u);
+  EXPECT_EQ(this->NextFrameId(client, 5.0), 2u);
+  EXPECT_EQ(this->NextFrameId(client, 0.5), 0u) << "a third frame while two are unacknowledged";
+
+  this->Acknowledge(client, 1);
+  EXPECT_EQ(this->NextFrameId(client, 5.0), 10u) << "room for one: the newest frame";
+  EXPECT_EQ(this->NextFrameId(client, 0.5), 0u);
+
+  // Acknowledgements are cumulative: 10 covers 2.
+  this->Acknowledge(client, 10);
+  server.Publish(MakeFrame(11, 11, 1000));
+  EXPECT_EQ(this->NextFrameId(client, 5.0), 11u);
+  server.Publish(MakeFrame(12, 12, 1000));
+  EXPECT_EQ(this->NextFrameId(client, 5.0), 12u) << "two fit in the window";
+  EXPECT_GE(server.GetCounters().droppedFrames, 7u);
+}
+
+// A decoder that lost a frame never acknowledges it; the window must not stay shut.
+TEST_F(ServerTest, AnUnacknowledgedFrameStopsHoldingTheWindowAfterTheTimeout)
+{
+  RemotingClient client;
+  RemotingServer& server = this->StartWithFlowControl(client, 1, 1.0);
+  server.Publish(MakeFrame(1, 1, 1000));
+  EXPECT_EQ(this->NextFrameId(client, 5.0), 1u);
+  server.Publish(MakeFrame(2, 2, 1000));
+  EXPECT_EQ(this->NextFrameId(client, 0.3), 0u) << "the window of one is full";
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  server.Publish(MakeFrame(3, 3, 1000)); // any event after the timeout lets the newest through
+  EXPECT_EQ(this->NextFrameId(client, 5.0), 3u);
+}
+
+// An H.264 client slower than the renderer: a delta frame cannot replace the one waiting for
+// it, so the waiting frame is kept, deltas are skipped and a key frame is requested; every
+// frame the client gets decodes, and it keeps getting frames.
+TEST_F(ServerTest, ASlowH264ClientGetsOnlyDecodableFramesAndKeepsGettingThem)
+{
+  RemotingClient client;
+  RemotingServer& server = this->StartWithFlowControl(client, 1, 600.0, Codec::H264);
+  server.TakeKeyFrameRequest();
+  const auto publish = [&](std::uint64_t id, bool key) {
+    server.Publish(MakeFrame(id, id, 100, true, key));
+    ASSERT_TRUE(server.Flush());
+  };
+  publish(1, true);
+  EXPECT_EQ(this->NextFrameId(client, 5.0), 1u);
+  publish(2, false); // waits: decodes after 1
+  EXPECT_FALSE(server.TakeKeyFrameRequest());
+  publish(3, false); // refers to 2, which the client has not had: skipped
+  EXPECT_TRUE(server.TakeKeyFrameRequest()) << "the encoder must be asked for a key frame";
+  this->Acknowledge(client, 1);
+  EXPECT_EQ(this->NextFrameId(client, 5.0), 2u) << "the waiting delta is kept, not lost";
+  publish(4, false); // after a skipped delta: useless without a key frame
+  this->Acknowledge(client, 2);
+  EXPECT_EQ(this->NextFrameId(client, 0.5), 0u);
+  publish(5, true);
+  EXPECT_EQ(this->NextFrameId(client, 5.0), 5u);
+  publish(6, true);
+  publish(7, false); // 6 is still waiting for the window: 7 cannot replace it
+  this->Acknowledge(client, 5);
+  EXPECT_EQ(this->NextFrameId(client, 5.0), 6u);
+  this->Acknowledge(client, 6);
+  EXPECT_EQ(this->NextFrameId(client, 0.5), 0u);
 }
 
 TEST_F(ServerTest, ServesHttpsAndWssWithAUserCertificate)

@@ -475,6 +475,11 @@ bool ParseClientMessage(std::string_view text, ClientMessage* message, std::stri
       fields.Counter("poseId", &message->displayed.poseId) &&
       fields.Number("poseToDisplayMs", &message->displayed.poseToDisplayMs);
   }
+  if (name == "decoded")
+  {
+    message->type = ClientMessageType::Decoded;
+    return FieldReader(document, "decoded", reason).Counter("frameId", &message->decoded.frameId);
+  }
   if (name == "ping")
   {
     message->type = ClientMessageType::Ping;
@@ -545,6 +550,11 @@ std::string SerializeDisplayed(const DisplayedMessage& displayed)
   return json({ { "type", "displayed" }, { "frameId", displayed.frameId },
                 { "poseId", displayed.poseId }, { "poseToDisplayMs", displayed.poseToDisplayMs } })
     .dump();
+}
+
+std::string SerializeDecoded(const DecodedMessage& decoded)
+{
+  return json({ { "type", "decoded" }, { "frameId", decoded.frameId } }).dump();
 }
 
 std::string SerializeWelcome(const WelcomeInfo& info, Role role, Codec codec)

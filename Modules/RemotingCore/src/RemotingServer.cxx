@@ -22,6 +22,7 @@
 #include <condition_variable>
 #include <deque>
 #include <fstream>
+#include <future>
 #include <mutex>
 #include <optional>
 #include <sstream>
@@ -160,6 +161,8 @@ public:
   virtual ~ClientSession() = default;
   virtual void QueueFrame(const PublishedFrame& frame, double publishedMs) = 0;
   virtual void QueueStatistics(ServerStatistics statistics) = 0;
+  // The client acknowledged every frame up to frameId (a `decoded` message).
+  virtual void FramesDecoded(std::uint64_t frameId) = 0;
   Role SessionRole = Role::Spectator;
   bool Greeted = false;
   Codec SessionCodec = Codec::Jpeg;
@@ -294,13 +297,15 @@ public:
     }
     if (this->PendingFrame)
     {
-      // Latest wins: the frame still waiting is replaced. Under H.264 the new frame refers to
-      // the dropped one, so this client waits for a key frame instead.
+      // Latest wins: the frame still waiting is replaced. An H.264 delta frame cannot replace
+      // it, because it refers to the waiting one, which the client has not had: the waiting
+      // frame stays (it decodes), this one is dropped, and the client skips deltas until a key
+      // frame, which can replace anything. Were the waiting frame dropped instead, a client
+      // slower than the renderer would lose every frame to the next delta and see none.
       ++this->Dropped;
       this->CountDropped();
       if (h264 && !frame.h264KeyFrame)
       {
-        this->PendingFrame.reset();
         this->NeedsKeyFrame = true;
         this->RequestKeyFrame();
         return;
@@ -311,7 +316,18 @@ public:
       this->NeedsKeyFrame = false;
     }
     this->PendingFrame = std::move(message);
+    this->PendingFrameId = frame.frameId;
     this->PendingPublishedMs = publishedMs;
+    this->Write();
+  }
+
+  void FramesDecoded(std::uint64_t frameId) override
+  {
+    this->FlowControl = true;
+    while (!this->FramesInFlight.empty() && this->FramesInFlight.front().first <= frameId)
+    {
+      this->FramesInFlight.pop_front();
+    }
     this->Write();
   }
 
@@ -444,9 +460,13 @@ private:
           self->OnWrite(error, false);
         });
     }
-    else if (this->PendingFrame)
+    else if (this->PendingFrame && this->MayWriteFrame())
     {
       this->Writing = true;
+      if (this->FlowControl)
+      {
+        this->FramesInFlight.emplace_back(this->PendingFrameId, NowMs());
+      }
       this->CurrentFrame = std::move(this->PendingFrame);
       this->CurrentPublishedMs = this->PendingPublishedMs;
       this->Socket.binary(true);
@@ -461,6 +481,25 @@ private:
       this->Socket.async_close(websocket::close_code::protocol_error,
         [self = this->shared_from_this()](beast::error_code) {});
     }
+  }
+
+  // A client that acknowledges frames gets a new one only while fewer than the window are
+  // unacknowledged; the newest frame waits in PendingFrame meanwhile (latest wins). A client
+  // that never acknowledges is paced by TCP alone.
+  bool MayWriteFrame()
+  {
+    if (!this->FlowControl)
+    {
+      return true;
+    }
+    const double expiredBefore =
+      NowMs() - 1000.0 * this->Server->Options.frameAcknowledgementTimeoutSeconds;
+    while (!this->FramesInFlight.empty() && this->FramesInFlight.front().second < expiredBefore)
+    {
+      this->FramesInFlight.pop_front();
+    }
+    return this->FramesInFlight.size() <
+      static_cast<std::size_t>(std::max(1, this->Server->Options.maximumFramesInFlight));
   }
 
   void OnWrite(beast::error_code error, bool frame)
@@ -486,7 +525,10 @@ private:
   std::deque<std::string> Texts;
   std::string CurrentText;
   std::shared_ptr<const std::string> PendingFrame;
+  std::uint64_t PendingFrameId = 0;
   std::shared_ptr<const std::string> CurrentFrame;
+  bool FlowControl = false; // set by the client's first `decoded` message
+  std::deque<std::pair<std::uint64_t, double>> FramesInFlight; // frameId, sent at (ms)
   double PendingPublishedMs = 0.0;
   double CurrentPublishedMs = 0.0;
   bool Writing = false;
@@ -580,6 +622,10 @@ std::string RemotingServer::Internals::Handle(
       {
         this->Counters.poseToDisplayMs = message.displayed.poseToDisplayMs;
       }
+      return std::string();
+    case ClientMessageType::Decoded:
+      lock.unlock();
+      session.FramesDecoded(message.decoded.frameId); // on the network thread, like all of Handle
       return std::string();
     case ClientMessageType::Ping:
       return SerializePong(message.ping.clientTime);
@@ -1079,6 +1125,21 @@ void RemotingServer::Publish(const PublishedFrame& frame)
       session->QueueFrame(frame, publishedMs);
     }
   });
+}
+
+bool RemotingServer::Flush(double timeoutSeconds)
+{
+  if (!this->IsRunning())
+  {
+    return false;
+  }
+  // Handlers run in the order they were queued on the one network thread: when this one runs,
+  // everything published before it has been handed to the sessions.
+  auto done = std::make_shared<std::promise<void>>();
+  std::future<void> handled = done->get_future();
+  net::post(*this->Impl->Io, [done] { done->set_value(); });
+  return handled.wait_for(std::chrono::duration<double>(timeoutSeconds)) ==
+    std::future_status::ready;
 }
 
 void RemotingServer::PublishStatistics(const ServerStatistics& statistics)

@@ -94,6 +94,13 @@ struct DisplayedMessage
   double poseToDisplayMs = 0.0;
 };
 
+// Flow control: the client has finished with every frame up to frameId (decoded, or dropped
+// or skipped without decoding). Cumulative, so a lost or merged acknowledgement costs nothing.
+struct DecodedMessage
+{
+  std::uint64_t frameId = 0;
+};
+
 struct PingMessage
 {
   double clientTime = 0.0;
@@ -105,6 +112,7 @@ enum class ClientMessageType
   Pose,
   Interaction,
   Displayed,
+  Decoded,
   Ping
 };
 
@@ -115,6 +123,7 @@ struct ClientMessage
   PoseMessage pose;
   InteractionMessage interaction;
   DisplayedMessage displayed;
+  DecodedMessage decoded;
   PingMessage ping;
 };
 
@@ -129,6 +138,7 @@ std::string SerializeHello(const HelloMessage& hello);
 std::string SerializePose(const PoseMessage& pose);
 std::string SerializeInteraction(const InteractionMessage& interaction);
 std::string SerializeDisplayed(const DisplayedMessage& displayed);
+std::string SerializeDecoded(const DecodedMessage& decoded);
 
 // What the server tells a client in its welcome message.
 struct WelcomeInfo

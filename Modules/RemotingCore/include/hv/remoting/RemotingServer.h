@@ -36,6 +36,13 @@ struct ServerOptions
   std::size_t maximumMessageBytes = DefaultMaximumClientMessageBytes;
   // The codec clients get when they can decode it (JPEG otherwise).
   Codec codec = Codec::Jpeg;
+  // Flow control for clients that acknowledge frames with `decoded` messages: at most this
+  // many frames sent and not yet acknowledged. A browser reads its socket at once and queues
+  // frames in its decoder, so TCP back-pressure alone would let seconds of frames pile up there.
+  int maximumFramesInFlight = 2;
+  // An unacknowledged frame older than this no longer holds the window (a lost decoder output
+  // must not freeze the view).
+  double frameAcknowledgementTimeoutSeconds = 2.0;
   // Called from the network thread with one line per event worth logging (rejected
   // requests and messages, connections); nullptr: silent.
   std::function<void(const std::string&)> log;
@@ -44,6 +51,7 @@ struct ServerOptions
 // One frame, encoded once per codec some client needs; each is a complete HVF1 message.
 struct PublishedFrame
 {
+  std::uint64_t frameId = 0; // the frame header's, for flow control
   std::shared_ptr<const std::string> jpegMessage;
   std::shared_ptr<const std::string> h264Message;
   bool h264KeyFrame = false;
@@ -95,6 +103,10 @@ public:
   // True once after an H.264 client joined or lost a frame: encode the next frame as a key frame.
   bool TakeKeyFrameRequest();
   void Publish(const PublishedFrame& frame);
+  // Publish() returns at once; this waits until the network thread has handed everything
+  // published before the call to the clients' sessions (not until it reached them). False if
+  // the server is not running or the timeout passed.
+  bool Flush(double timeoutSeconds = 5.0);
   // Sends each client a stats message (its own send time and dropped frames filled in).
   void PublishStatistics(const ServerStatistics& statistics);
   ServerCounters GetCounters() const;
