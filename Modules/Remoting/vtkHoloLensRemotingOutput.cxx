@@ -677,6 +677,9 @@ int vtkHoloLensRemotingOutput::ProcessFrame(double waitSeconds)
   internal.VolumeCenterMetres(s, header.volumeCenter.data());
   header.eyes[0] = eyes[0];
   header.eyes[1] = eyes[1];
+  header.illuminationModel = IlluminationModelName(mapper->GetIlluminationModel());
+  header.preset = internal.CurrentPreset;
+  header.cuttingPlane = internal.CuttingPlaneOn;
   std::string reason;
   std::string encoded[2];
   hv::remoting::PublishedFrame frame;

@@ -23,7 +23,7 @@ const BRIGHT = 40;            // a channel value above this counts as "not black
 const MIN_BRIGHT_FRACTION = 0.01;
 const CHANGED = 30;           // a channel difference above this counts as "changed"
 const MIN_CHANGED_FRACTION = 0.005;
-// Typical on two cores with 160x104 eyes: 80-200 ms. A backlog of queued frames grew past 2 s
+// Typical on two cores with 160x104 eyes: 100-300 ms. A backlog of queued frames grew past 3 s
 // within seconds before the page acknowledged decoded frames (flow control).
 const MAX_POSE_TO_DISPLAY_MS = 1000;
 // The status panel (0.40 m × 0.10 m at 1.25 m) covers about 10 % of each eye's 29° view; its
@@ -93,7 +93,7 @@ async function until(page, predicate, arg, limitMs = 30000) {
 
 const player = (page) => page.evaluate(() => {
   const p = window.holovolumePlayer;
-  return { state: p.state, role: p.role, codec: p.codec, mode: p.mode, connects: p.connects, welcome: p.welcome,
+  return { state: p.state, role: p.role, codec: p.codec, mode: p.mode, connects: p.connects, welcome: p.welcome, stats: p.stats,
     framesReceived: p.framesReceived, framesDrawn: p.framesDrawn, lastFrame: p.lastFrame,
     sentPoseIds: p.sentPoseIds, lastSentPoseId: p.lastSentPoseId, lastPoseToDisplayMs: p.lastPoseToDisplayMs,
     errors: p.errors };
@@ -353,16 +353,30 @@ async function runXR() {
     visited.push(left);
   }
 
-  // The server renders these small frames far faster than the page decodes them; without
-  // flow control they queue in the page's decoders and the latency grows by seconds a minute.
+  // From 2.5 m the volume covers a few per cent of the view, so the server renders these small
+  // frames far faster than the page decodes them; without flow control they queued in the
+  // page's decoders and the latency grew by a second every few seconds.
+  const lastStation = stations.at(-1);
+  await page.evaluate((position) => {
+    window.xrDevice.position.set(...position);
+    window.xrDevice.quaternion.set(0, 0, 0, 1); // looking along −Z, at the volume
+  }, [center[0], center[1], center[2] + 2.5]);
   const latencies = [];
-  for (let i = 0; i < 10; i++) {
+  for (let i = 0; i < 20; i++) {
     await page.waitForTimeout(200);
     latencies.push((await player(page)).lastPoseToDisplayMs);
   }
+  await page.evaluate(({ position, quaternion }) => {
+    window.xrDevice.position.set(...position);
+    window.xrDevice.quaternion.set(...quaternion);
+  }, lastStation);
   const worstLatency = Math.max(...latencies.map((ms) => ms ?? Infinity));
-  check('xr: pose-to-display latency stays bounded (no frame backlog)', worstLatency < MAX_POSE_TO_DISPLAY_MS,
-    `worst of ${latencies.length} samples over 2 s: ${worstLatency.toFixed(0)} ms (limit ${MAX_POSE_TO_DISPLAY_MS} ms)`);
+  // A loaded machine renders slower; allow three of the server's own frame times on top.
+  const stats = (await player(page)).stats ?? {};
+  const frameMs = (stats.renderMs ?? 0) + (stats.denoiseMs ?? 0) + (stats.encodeMs ?? 0);
+  const latencyLimit = MAX_POSE_TO_DISPLAY_MS + 3 * frameMs;
+  check('xr: pose-to-display latency stays bounded (no frame backlog)', worstLatency < latencyLimit,
+    `worst of ${latencies.length} samples over 4 s from 2.5 m away: ${worstLatency.toFixed(0)} ms (limit ${MAX_POSE_TO_DISPLAY_MS} ms + 3 × ${frameMs.toFixed(0)} ms server frame time)`);
 
   // A malformed message gets an `error`, the connection stays open and frames keep coming.
   const before = await page.evaluate(() => {
@@ -391,6 +405,7 @@ async function runXR() {
   checkStereoImage(`xr: screenshot ${shot.width}x${shot.height}`, shot);
   await checkHeadsetStatus(page, viewsOnly);
   await checkGrab(page);
+  await checkHeadsetControls(page);
   await checkNoErrors(page, 'xr', answer ? [answer.seq] : []);
 }
 
@@ -458,6 +473,52 @@ async function checkGrab(page) {
   const reset = await centerNear(page, start);
   check('xr: reset placement puts the volume back', reset !== null, `volumeCenter ${fmtPoint(reset?.c ?? (await player(page)).lastFrame.volumeCenter)}`);
 }
+
+// The panel's buttons, pressed the way a HoloLens wearer does: the right hand's ray aimed at a
+// button highlights it, a pinch (air tap) presses it. The server's answer shows in the scene
+// the next frames carry; the pinch must not also grab the volume.
+async function checkHeadsetControls(page) {
+  const { welcome, lastFrame } = await player(page);
+  const centerBefore = lastFrame.volumeCenter;
+  const head = await page.evaluate(() => { const p = window.xrDevice.position; return [p.x, p.y, p.z]; });
+  const handAt = [head[0] + 0.12, head[1] - 0.3, head[2]];
+  const press = async (id, expectScene, label) => {
+    const button = (await page.evaluate(() => window.holovolumePlayer.headsetButtons)).find((b) => b.id === id);
+    if (!check(`xr: panel button '${id}' present`, button?.enabled === true, JSON.stringify(button ?? null))) return;
+    // Aim the hand's −Z (its target ray) at the button's centre.
+    const direction = normalizeVector(button.center.map((v, i) => v - handAt[i]));
+    const axis = [direction[1], -direction[0], 0]; // (0, 0, −1) × direction
+    const w = 1 - direction[2];                    // 1 + (0, 0, −1) · direction
+    const norm = Math.hypot(...axis, w);
+    await page.evaluate(({ position, quaternion }) => {
+      window.xrDevice.primaryInputMode = 'hand';
+      window.xrDevice.hands.right.position.set(...position);
+      window.xrDevice.hands.right.quaternion.set(...quaternion);
+    }, { position: handAt, quaternion: [...axis, w].map((v) => v / norm) });
+    const hovered = await until(page, (id) => window.holovolumePlayer.hoveredHeadsetButton === id && id, id);
+    check(`xr: ${label}: the hand ray highlights '${id}'`, hovered === id, `hovered ${hovered ?? 'nothing'}`);
+    await page.evaluate(() => window.xrDevice.hands.right.updatePinchValue(1));
+    const scene = await until(page, (expected) => {
+      const s = window.holovolumePlayer.scene;
+      return s && Object.entries(expected).every(([k, v]) => s[k] === v) ? s : null;
+    }, expectScene);
+    await page.evaluate(() => window.xrDevice.hands.right.updatePinchValue(0));
+    await xrFrames(page, 3);
+    check(`xr: ${label}`, scene !== null, `frames show ${JSON.stringify(scene ?? (await page.evaluate(() => window.holovolumePlayer.scene)))}`);
+  };
+  const scene = await page.evaluate(() => window.holovolumePlayer.scene);
+  const nextPreset = welcome.presets[(welcome.presets.indexOf(scene?.preset) + 1) % welcome.presets.length];
+  await press('preset', { preset: nextPreset }, `air tap on 'Preset' switches to the next preset (${nextPreset})`);
+  await press('cutting-plane', { cuttingPlane: true }, "air tap on 'Cut' turns the cutting plane on");
+  await press('cutting-plane', { cuttingPlane: false }, "a second air tap on 'Cut' turns it off");
+  const { lastFrame: after } = await player(page);
+  const presses = await page.evaluate(() => window.holovolumePlayer.panelPresses);
+  check('xr: pressing panel buttons does not grab the volume', distance(after.volumeCenter, centerBefore) < 1e-3 &&
+    presses.join() === 'preset,cutting-plane,cutting-plane',
+    `volumeCenter ${fmtPoint(centerBefore)} -> ${fmtPoint(after.volumeCenter)}; presses ${presses.join(', ')}`);
+}
+
+const normalizeVector = (v) => { const n = Math.hypot(...v); return v.map((x) => x / n); };
 
 const fmtPoint = (p) => `(${p.map((v) => v.toFixed(3)).join(', ')})`;
 

@@ -11,19 +11,28 @@ import {
 } from './mat4.js';
 
 export class GrabTracker {
-  // sendInteraction(action, fields) sends an `interaction` message.
-  constructor(sendInteraction) {
+  // sendInteraction(action, fields) sends an `interaction` message. claimSelect(event), if
+  // given, is asked on each selectstart; when it returns true (the select pressed a button)
+  // that select does not grab.
+  constructor(sendInteraction, claimSelect = () => false) {
     this.sendInteraction = sendInteraction;
+    this.claimSelect = claimSelect;
+    this.claimed = new Set(); // input sources whose current select pressed a button
     this.held = new Map(); // inputSource -> Set of 'select' / 'squeeze' being held
     this.grabbing = [];    // input sources of the current grab, with start poses, or empty
   }
 
   attach(session) {
     const press = (kind) => (event) => {
+      if (kind === 'select' && this.claimSelect(event)) {
+        this.claimed.add(event.inputSource);
+        return;
+      }
       if (!this.held.has(event.inputSource)) this.held.set(event.inputSource, new Set());
       this.held.get(event.inputSource).add(kind);
     };
     const release = (kind) => (event) => {
+      if (kind === 'select' && this.claimed.delete(event.inputSource)) return;
       const kinds = this.held.get(event.inputSource);
       kinds?.delete(kind);
       if (kinds && kinds.size === 0) this.held.delete(event.inputSource);
@@ -33,7 +42,10 @@ export class GrabTracker {
     session.addEventListener('selectend', release('select'));
     session.addEventListener('squeezeend', release('squeeze'));
     session.addEventListener('inputsourceschange', (event) => {
-      for (const source of event.removed) this.held.delete(source);
+      for (const source of event.removed) {
+        this.held.delete(source);
+        this.claimed.delete(source);
+      }
     });
   }
 
@@ -69,6 +81,7 @@ export class GrabTracker {
     if (this.grabbing.length) this.sendInteraction('grab-end');
     this.grabbing = [];
     this.held.clear();
+    this.claimed.clear();
   }
 }
 

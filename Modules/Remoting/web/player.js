@@ -54,9 +54,11 @@ const state = {
   newestFrameId: -1,       // newest frame handed to the GPU; older decodes are dropped
   finishedFrameId: -1,     // newest frame acknowledged to the server (flow control)
   frame: null,             // {header, eyes, drawn} of the frame in the textures
+  scene: null,             // {illuminationModel, preset, cuttingPlane} of the newest frame
   lastFrame: null,
   drawnPoseIds: [],
   lastDisplayedPoseId: 0,
+  panelPresses: [],        // ids of the headset panel's buttons pressed, in order
   lastPoseToDisplayMs: null,
   errors: [],
   errorSeq: 0,
@@ -160,6 +162,7 @@ const decoder = new FrameDecoder(({ header, images }) => {
   images.left.close();
   images.right.close();
   state.framesDecoded++;
+  if (header.scene) state.scene = header.scene;
   state.frame = { header, eyes, drawn: false };
   needsDraw = true;
 }, (message) => recordError('decode', message), (frameId) => {
@@ -271,8 +274,10 @@ async function enterXR(mode) {
     await session.end();
     throw e;
   }
-  const grab = new GrabTracker(sendInteraction);
+  // A select that starts on a panel button presses it instead of grabbing the volume.
+  const grab = new GrabTracker(sendInteraction, (event) => pressPanelButton(event, referenceSpace));
   grab.attach(session);
+  xrInputSources = () => session.inputSources;
   xrMode = mode;
   statusPanel?.setText(statusText());
   session.addEventListener('end', () => {
@@ -315,6 +320,8 @@ function drawXRFrame(time, frame, mode, referenceSpace, grab) {
   // Also before the first frame: "connecting" is worth seeing in the headset.
   if (headsetStatusVisible && statusPanel) {
     statusPanel.follow(viewerPose.transform.matrix, time);
+    statusPanel.setButtons(panelButtons());
+    statusPanel.setHovered(hoveredButton(frame, referenceSpace));
     for (const view of viewerPose.views) {
       statusPanel.draw(layer.getViewport(view), multiply(view.projectionMatrix, view.transform.inverse.matrix));
     }
@@ -330,7 +337,78 @@ async function offerXR(button, mode) {
 offerXR(ui.enterAR, 'immersive-ar');
 offerXR(ui.enterVR, 'immersive-vr');
 
-// Controls (desktop page; in a headset the input sources grab)
+// Controls: the page's own (desktop), and the same on the headset status panel
+
+let xrInputSources = () => [];
+
+// The scene as the newest frame shows it (the server's state), or as the welcome announced it.
+function currentScene() {
+  return {
+    illuminationModel: state.scene?.illuminationModel ?? state.welcome?.illuminationModel,
+    preset: state.scene?.preset ?? state.welcome?.preset,
+    cuttingPlane: state.scene?.cuttingPlane ?? ui.cuttingPlane.checked,
+  };
+}
+
+const nextOf = (values, current) => (Array.isArray(values) && values.length
+  ? values[(values.indexOf(current) + 1) % values.length] : null);
+
+function panelButtons() {
+  const enabled = isController();
+  const scene = currentScene();
+  return [
+    { id: 'illumination', label: `Light: ${scene.illuminationModel ?? '–'}`, enabled },
+    { id: 'preset', label: `Preset: ${scene.preset ?? '–'}`, enabled },
+    { id: 'cutting-plane', label: `Cut: ${scene.cuttingPlane ? 'on' : 'off'}`, enabled },
+    { id: 'reset-placement', label: 'Reset placement', enabled },
+  ];
+}
+
+// The target ray of an input source: its origin and −Z axis (WebXR's pointing direction).
+function targetRay(frame, inputSource, referenceSpace) {
+  const pose = frame.getPose(inputSource.targetRaySpace, referenceSpace);
+  if (!pose) return null;
+  const m = pose.transform.matrix;
+  return { origin: [m[12], m[13], m[14]], direction: normalize([-m[8], -m[9], -m[10]]) };
+}
+
+function hoveredButton(frame, referenceSpace) {
+  for (const inputSource of xrInputSources()) {
+    const ray = targetRay(frame, inputSource, referenceSpace);
+    const id = ray && statusPanel.buttonAt(ray.origin, ray.direction);
+    if (id) return id;
+  }
+  return null;
+}
+
+// Called on selectstart: presses the panel button the input's ray points at, if any.
+function pressPanelButton(event, referenceSpace) {
+  if (!headsetStatusVisible || !statusPanel || !isController()) return false;
+  const ray = targetRay(event.frame, event.inputSource, referenceSpace);
+  const id = ray && statusPanel.buttonAt(ray.origin, ray.direction);
+  if (!id) return false;
+  const scene = currentScene();
+  if (id === 'illumination') {
+    const model = nextOf(state.welcome?.illuminationModels, scene.illuminationModel);
+    if (model) selectControl(ui.illumination, model);
+  } else if (id === 'preset') {
+    const preset = nextOf(state.welcome?.presets, scene.preset);
+    if (preset) selectControl(ui.preset, preset);
+  } else if (id === 'cutting-plane') {
+    ui.cuttingPlane.checked = !scene.cuttingPlane;
+    ui.cuttingPlane.dispatchEvent(new Event('change'));
+  } else if (id === 'reset-placement') {
+    ui.resetPlacement.click();
+  }
+  state.panelPresses.push(id);
+  return true;
+}
+
+// The DOM control stays the one place that sends the interaction.
+function selectControl(select, value) {
+  select.value = value;
+  select.dispatchEvent(new Event('change'));
+}
 
 function fillSelect(select, values, current) {
   if (!Array.isArray(values)) return;
@@ -423,6 +501,10 @@ Object.defineProperty(window, 'holovolumePlayer', {
         position: copy(statusPanel?.position), panelToWorld: statusPanel?.panelToWorld ? Array.from(statusPanel.panelToWorld) : null };
     },
     showHeadsetStatus(visible) { headsetStatusVisible = Boolean(visible); },
+    get headsetButtons() { return statusPanel ? copy(statusPanel.buttonCenters()) : []; },
+    get hoveredHeadsetButton() { return statusPanel?.hovered ?? null; },
+    get panelPresses() { return state.panelPresses.slice(); },
+    get scene() { return copy(state.scene); },
     // Sends raw text on the socket, to test the server's answer to malformed messages.
     debugSend(text) { return connection.sendText(String(text)); },
   }),

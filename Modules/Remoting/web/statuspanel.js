@@ -1,24 +1,29 @@
 // The connection and latency status inside an immersive session, where the page's DOM is not
-// visible: the same lines as the desktop overlay, drawn on a small panel in the world.
+// visible: the same lines as the desktop overlay, drawn on a small panel in the world, above a
+// row of buttons for what the page's controls do (illumination model, transfer-function preset,
+// cutting plane, reset placement), pressed with a hand ray or controller (air tap / trigger).
 //
 // Placement: not rigidly head-locked (uncomfortable, and it swims against the hologram) but
 // "tag-along": the panel eases toward a point above the line of sight 1.25 m ahead and turns
 // to face the viewer. 1.25 m is the near end of the zone Microsoft's comfort guidance gives as
 // optimal for hologram placement, 1.25–5 m (learn.microsoft.com/windows/mixed-reality/design/
-// comfort). The panel spans about 7°–11° above the gaze, inside the HoloLens 2's vertical field
+// comfort). The panel spans about 5°–13° above the gaze, inside the HoloLens 2's vertical field
 // of view (about 29°), so it stays readable without covering the volume the user looks at.
 
 import { createImageTexture, createProgram } from './glprogram.js';
 import { add, cross, getTranslation, normalize, scale, sub } from './mat4.js';
 
 const PANEL_WIDTH_M = 0.40;
-const PANEL_HEIGHT_M = 0.10;
 const DISTANCE_M = 1.25;
 const RISE_M = 0.2;             // along the head's up axis
 const FOLLOW_TIME_S = 0.25;     // exponential easing time constant
 const SNAP_DISTANCE_M = 1.0;    // farther than this from its target (e.g. after a teleport): jump
 const CANVAS_WIDTH = 1024;
-const CANVAS_HEIGHT = 256;
+const TEXT_HEIGHT = 256;
+const BUTTON_ROW_HEIGHT = 112;
+const CANVAS_HEIGHT = TEXT_HEIGHT + BUTTON_ROW_HEIGHT;
+const PANEL_HEIGHT_M = (PANEL_WIDTH_M * CANVAS_HEIGHT) / CANVAS_WIDTH; // square texels: 0.1575 m
+const BUTTON_MARGIN = 10;
 
 const VERTEX_SHADER = `#version 300 es
 uniform mat4 uWorldToClip;
@@ -51,28 +56,73 @@ export class StatusPanel {
     this.canvas = new OffscreenCanvas(CANVAS_WIDTH, CANVAS_HEIGHT);
     this.context = this.canvas.getContext('2d');
     this.text = null;
+    this.buttons = [];      // [{id, label, enabled}] left to right
+    this.hovered = null;    // id of the button a ray points at
+    this.drawn = null;      // what the texture shows
     this.position = null;   // world, metres
+    this.axes = null;       // the panel's unit x (right), y (up), z (toward the viewer)
     this.lastTime = null;
     this.panelToWorld = null;
   }
 
-  // Redraws the texture when the text changed (a few times a second at most: the caller
-  // updates it on the status timer, not per frame).
+  // The status lines (updated on the page's status timer, a few times a second).
   setText(text) {
-    if (text === this.text) return;
     this.text = text;
+    this.redraw();
+  }
+
+  // buttons: [{id, label, enabled}], left to right; an empty list leaves the row empty.
+  setButtons(buttons) {
+    this.buttons = buttons;
+    this.redraw();
+  }
+
+  // The id of the button under a ray (or null), drawn highlighted so the user sees what an air
+  // tap would press.
+  setHovered(id) {
+    this.hovered = id;
+    this.redraw();
+  }
+
+  buttonRect(index) {
+    const width = CANVAS_WIDTH / Math.max(1, this.buttons.length);
+    return { x: index * width + BUTTON_MARGIN, y: TEXT_HEIGHT + BUTTON_MARGIN,
+      width: width - 2 * BUTTON_MARGIN, height: BUTTON_ROW_HEIGHT - 2 * BUTTON_MARGIN };
+  }
+
+  // Redraws the texture only when what it shows changed.
+  redraw() {
+    if (this.text === null) return;
+    const key = JSON.stringify([this.text, this.buttons, this.hovered]);
+    if (key === this.drawn) return;
+    this.drawn = key;
     const c = this.context;
     c.clearRect(0, 0, CANVAS_WIDTH, CANVAS_HEIGHT);
     // A dark translucent backing keeps the text legible on an opaque (VR) display; on the
     // HoloLens' additive display dark is transparent and only the text shows.
     c.fillStyle = 'rgba(0, 0, 0, 0.55)';
-    c.fillRect(0, 0, CANVAS_WIDTH, CANVAS_HEIGHT);
-    const lines = text.split('\n');
-    const lineHeight = Math.floor((CANVAS_HEIGHT - 16) / Math.max(4, lines.length));
+    c.fillRect(0, 0, CANVAS_WIDTH, TEXT_HEIGHT);
+    const lines = this.text.split('\n');
+    const lineHeight = Math.floor((TEXT_HEIGHT - 16) / Math.max(4, lines.length));
     c.font = `${Math.floor(lineHeight * 0.78)}px sans-serif`;
     c.textBaseline = 'top';
     c.fillStyle = '#e8f4ff';
     lines.forEach((line, i) => c.fillText(line, 14, 8 + i * lineHeight, CANVAS_WIDTH - 28));
+    c.font = '34px sans-serif';
+    c.textAlign = 'center';
+    c.textBaseline = 'middle';
+    this.buttons.forEach((button, i) => {
+      const r = this.buttonRect(i);
+      const hovered = button.enabled && button.id === this.hovered;
+      c.fillStyle = hovered ? 'rgba(90, 160, 255, 0.85)' : 'rgba(40, 60, 90, 0.75)';
+      c.fillRect(r.x, r.y, r.width, r.height);
+      c.strokeStyle = hovered ? '#ffffff' : '#8fb8e8';
+      c.lineWidth = hovered ? 5 : 2;
+      c.strokeRect(r.x, r.y, r.width, r.height);
+      c.fillStyle = button.enabled ? '#ffffff' : '#7f8c99';
+      c.fillText(button.label, r.x + r.width / 2, r.y + r.height / 2, r.width - 16);
+    });
+    c.textAlign = 'start';
     const gl = this.gl;
     gl.bindTexture(gl.TEXTURE_2D, this.texture);
     gl.pixelStorei(gl.UNPACK_FLIP_Y_WEBGL, false);
@@ -101,10 +151,49 @@ export class StatusPanel {
     const z = normalize(Math.hypot(toHead[0], toHead[2]) > 1e-6 ? [toHead[0], 0, toHead[2]] : [0, 0, 1]);
     const x = normalize(cross([0, 1, 0], z));
     const y = cross(z, x);
+    this.axes = { x, y, z };
     const [w, h, p] = [PANEL_WIDTH_M, PANEL_HEIGHT_M, this.position];
     this.panelToWorld = new Float32Array([
       x[0] * w, x[1] * w, x[2] * w, 0, y[0] * h, y[1] * h, y[2] * h, 0, z[0], z[1], z[2], 0, p[0], p[1], p[2], 1]);
     return { position: this.position.slice(), normal: z };
+  }
+
+  // World position of a canvas point (pixels, top left origin) on the panel as last placed.
+  worldPoint(px, py) {
+    const { x, y } = this.axes;
+    const u = (px / CANVAS_WIDTH - 0.5) * PANEL_WIDTH_M;
+    const v = (0.5 - py / CANVAS_HEIGHT) * PANEL_HEIGHT_M;
+    return add(this.position, add(scale(x, u), scale(y, v)));
+  }
+
+  // Where each button is, in the world (for tests and debugging).
+  buttonCenters() {
+    if (!this.axes) return [];
+    return this.buttons.map((button, i) => {
+      const r = this.buttonRect(i);
+      return { id: button.id, label: button.label, enabled: button.enabled,
+        center: this.worldPoint(r.x + r.width / 2, r.y + r.height / 2) };
+    });
+  }
+
+  // The enabled button a ray (world origin, direction) hits, or null: the ray meets the
+  // panel's plane in front of its origin, inside a button's rectangle.
+  buttonAt(origin, direction) {
+    if (!this.axes || !this.buttons.length) return null;
+    const { x, y, z } = this.axes;
+    const denominator = direction[0] * z[0] + direction[1] * z[1] + direction[2] * z[2];
+    if (Math.abs(denominator) < 1e-6) return null;
+    const toPanel = sub(this.position, origin);
+    const t = (toPanel[0] * z[0] + toPanel[1] * z[1] + toPanel[2] * z[2]) / denominator;
+    if (t <= 0) return null;
+    const offset = sub(add(origin, scale(direction, t)), this.position);
+    const px = ((offset[0] * x[0] + offset[1] * x[1] + offset[2] * x[2]) / PANEL_WIDTH_M + 0.5) * CANVAS_WIDTH;
+    const py = (0.5 - (offset[0] * y[0] + offset[1] * y[1] + offset[2] * y[2]) / PANEL_HEIGHT_M) * CANVAS_HEIGHT;
+    const index = this.buttons.findIndex((button, i) => {
+      const r = this.buttonRect(i);
+      return button.enabled && px >= r.x && px <= r.x + r.width && py >= r.y && py <= r.y + r.height;
+    });
+    return index < 0 ? null : this.buttons[index].id;
   }
 
   // Draws the panel into the bound framebuffer's `viewport` for one eye (`worldToClip`:

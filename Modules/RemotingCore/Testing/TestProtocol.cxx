@@ -215,6 +215,9 @@ TEST(Protocol, FrameContainerRoundTripAndDamage)
   header.volumeCenter = { 0.0, 1.4, -0.8 };
   header.eyes[0] = { Translation(0.03, 0, 0), PerspectiveProjection(60, 2, 0.1, 10) };
   header.eyes[1] = { Translation(-0.03, 0, 0), PerspectiveProjection(60, 2, 0.1, 10) };
+  header.illuminationModel = "gradient-phong";
+  header.preset = "translucent";
+  header.cuttingPlane = true;
   const std::string left = "left-eye-bytes", right = std::string("right\0eye", 9);
   const std::string message = EncodeFrameMessage(header, left, right);
   ASSERT_EQ(message.substr(0, 4), "HVF1");
@@ -232,6 +235,9 @@ TEST(Protocol, FrameContainerRoundTripAndDamage)
   EXPECT_EQ(eyes[0].data, left);
   EXPECT_EQ(eyes[1].data, right);
   EXPECT_DOUBLE_EQ(eyes[1].matrices.view[12], -0.03);
+  EXPECT_EQ(decoded.illuminationModel, "gradient-phong");
+  EXPECT_EQ(decoded.preset, "translucent");
+  EXPECT_TRUE(decoded.cuttingPlane);
 
   // Truncated payload, a header length beyond the message, a wrong magic.
   EXPECT_FALSE(DecodeFrameMessage(message.substr(0, message.size() - 3), &decoded, eyes, &reason));

@@ -681,6 +681,11 @@ std::string EncodeFrameMessage(
       { { "renderMs", header.renderMs }, { "denoiseMs", header.denoiseMs },
         { "encodeMs", header.encodeMs } } },
     { "volumeCenter", header.volumeCenter }, { "eyes", eyes } };
+  if (!header.illuminationModel.empty() || !header.preset.empty())
+  {
+    document["scene"] = { { "illuminationModel", header.illuminationModel },
+      { "preset", header.preset }, { "cuttingPlane", header.cuttingPlane } };
+  }
   if (header.codec == Codec::H264)
   {
     document["codecString"] = header.codecString;
@@ -744,6 +749,16 @@ bool DecodeFrameMessage(
   if (header->codec == Codec::H264 && !fields.String("codecString", &header->codecString))
   {
     return false;
+  }
+  if (const json* scene = fields.Find("scene"); scene && scene->is_object())
+  {
+    const FieldReader sceneFields(*scene, "frame scene", reason);
+    if (!sceneFields.String("illuminationModel", &header->illuminationModel) ||
+      !sceneFields.String("preset", &header->preset) ||
+      !sceneFields.Boolean("cuttingPlane", &header->cuttingPlane))
+    {
+      return false;
+    }
   }
   if (const json* timings = fields.Find("timings"); timings && timings->is_object())
   {

@@ -308,6 +308,7 @@ int TestHoloLensRemotingOutput(int, char*[])
   Check(frame.valid && frame.eyes[0].coverage > 0.3 * straightCoverage &&
       frame.eyes[0].coverage < 0.75 * straightCoverage && frame.eyes[0].centroidX > 0.63,
     "a cutting plane through the centre keeps the +x half");
+  Check(frame.valid && frame.header.cuttingPlane, "the frame says its cutting plane is on");
   plane.enabled = false;
   viewer.Send(SerializeInteraction(plane));
   viewer.Send(R"({"type":"interaction","action":"reset-placement"})");
@@ -325,6 +326,9 @@ int TestHoloLensRemotingOutput(int, char*[])
   Check(frame.valid && mapper->GetIlluminationModel() == vtkPathTracedVolumeMapper::EMISSION_ABSORPTION &&
       volume->GetProperty() == bonePreset.GetPointer() && mapper->GetClippingPlanes()->GetNumberOfItems() == 0,
     "illumination model and transfer-function preset switched");
+  Check(frame.valid && frame.header.illuminationModel == "emission-absorption" &&
+      frame.header.preset == "bone" && !frame.header.cuttingPlane,
+    "the frame names its illumination model and preset (the player's controls show them)");
 
   // A malformed message is refused and the stream goes on.
   viewer.Send(R"({"type":"pose","poseId":7})");

@@ -205,6 +205,11 @@ struct FrameHeader
   double encodeMs = 0.0;
   std::array<double, 3> volumeCenter{};
   EyeMatrices eyes[2]{};
+  // The scene this frame shows, so that a client's controls display the server's state (the
+  // optional "scene" object; empty names when a frame has none).
+  std::string illuminationModel;
+  std::string preset;
+  bool cuttingPlane = false;
 };
 
 // "HVF1", uint32 little-endian header length, JSON header, then both eyes' payloads.
