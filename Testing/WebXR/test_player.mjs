@@ -26,8 +26,8 @@ const MIN_CHANGED_FRACTION = 0.005;
 // Typical on two cores with 160x104 eyes: 100-300 ms. A backlog of queued frames grew past 3 s
 // within seconds before the page acknowledged decoded frames (flow control).
 const MAX_POSE_TO_DISPLAY_MS = 1000;
-// The status panel (0.40 m × 0.10 m at 1.25 m) covers about 10 % of each eye's 29° view; its
-// text and backing change about 4.6 % of the view by more than CHANGED.
+// The status panel (0.40 m × 0.16 m at 1.25 m, status lines and buttons) covers about 15 % of
+// each eye's 29° view; its text, buttons and backing change about 6 % of it by more than CHANGED.
 const MIN_PANEL_FRACTION = 0.02;
 
 const { values: options } = parseArgs({

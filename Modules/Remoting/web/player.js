@@ -320,8 +320,7 @@ function drawXRFrame(time, frame, mode, referenceSpace, grab) {
   // Also before the first frame: "connecting" is worth seeing in the headset.
   if (headsetStatusVisible && statusPanel) {
     statusPanel.follow(viewerPose.transform.matrix, time);
-    statusPanel.setButtons(panelButtons());
-    statusPanel.setHovered(hoveredButton(frame, referenceSpace));
+    statusPanel.setControls(panelButtons(), hoveredButton(frame, referenceSpace));
     for (const view of viewerPose.views) {
       statusPanel.draw(layer.getViewport(view), multiply(view.projectionMatrix, view.transform.inverse.matrix));
     }
@@ -495,10 +494,9 @@ Object.defineProperty(window, 'holovolumePlayer', {
     get errors() { return copy(state.errors); },
     // The pose message sent with this poseId ({sentAt, mode, views}), while still kept.
     sentPose(poseId) { return copy(state.sentPoses.get(poseId)); },
-    // The status panel drawn in the headset: {visible, text, position (world, m), normal}.
+    // The status panel drawn in the headset: {visible, text, position (world, m)}.
     get headsetStatus() {
-      return { visible: headsetStatusVisible, text: statusPanel?.text ?? null,
-        position: copy(statusPanel?.position), panelToWorld: statusPanel?.panelToWorld ? Array.from(statusPanel.panelToWorld) : null };
+      return { visible: headsetStatusVisible, text: statusPanel?.text ?? null, position: copy(statusPanel?.position) };
     },
     showHeadsetStatus(visible) { headsetStatusVisible = Boolean(visible); },
     get headsetButtons() { return statusPanel ? copy(statusPanel.buttonCenters()) : []; },

@@ -11,7 +11,7 @@
 // of view (about 29°), so it stays readable without covering the volume the user looks at.
 
 import { createImageTexture, createProgram } from './glprogram.js';
-import { add, cross, getTranslation, normalize, scale, sub } from './mat4.js';
+import { add, cross, dot, getTranslation, length, normalize, scale, sub } from './mat4.js';
 
 const PANEL_WIDTH_M = 0.40;
 const DISTANCE_M = 1.25;
@@ -71,16 +71,11 @@ export class StatusPanel {
     this.redraw();
   }
 
-  // buttons: [{id, label, enabled}], left to right; an empty list leaves the row empty.
-  setButtons(buttons) {
+  // Per XR frame. buttons: [{id, label, enabled}], left to right; hovered: the id of the
+  // button under a ray (or null), drawn highlighted so the user sees what an air tap would press.
+  setControls(buttons, hovered) {
     this.buttons = buttons;
-    this.redraw();
-  }
-
-  // The id of the button under a ray (or null), drawn highlighted so the user sees what an air
-  // tap would press.
-  setHovered(id) {
-    this.hovered = id;
+    this.hovered = hovered;
     this.redraw();
   }
 
@@ -132,7 +127,7 @@ export class StatusPanel {
   }
 
   // Moves the panel toward its place for this head pose (`head`: world from head, column-major;
-  // `timeMs`: the XR frame time) and returns its world pose.
+  // `timeMs`: the XR frame time).
   follow(head, timeMs) {
     const headPosition = getTranslation(head);
     const up = normalize([head[4], head[5], head[6]]);
@@ -141,7 +136,7 @@ export class StatusPanel {
     const dt = this.lastTime === null ? Infinity : Math.max(0, (timeMs - this.lastTime) / 1000);
     this.lastTime = timeMs;
     const away = this.position ? sub(target, this.position) : null;
-    if (!away || Math.hypot(...away) > SNAP_DISTANCE_M || !Number.isFinite(dt)) {
+    if (!away || length(away) > SNAP_DISTANCE_M || !Number.isFinite(dt)) {
       this.position = target;
     } else {
       this.position = add(this.position, scale(away, 1 - Math.exp(-dt / FOLLOW_TIME_S)));
@@ -155,7 +150,6 @@ export class StatusPanel {
     const [w, h, p] = [PANEL_WIDTH_M, PANEL_HEIGHT_M, this.position];
     this.panelToWorld = new Float32Array([
       x[0] * w, x[1] * w, x[2] * w, 0, y[0] * h, y[1] * h, y[2] * h, 0, z[0], z[1], z[2], 0, p[0], p[1], p[2], 1]);
-    return { position: this.position.slice(), normal: z };
   }
 
   // World position of a canvas point (pixels, top left origin) on the panel as last placed.
@@ -181,14 +175,13 @@ export class StatusPanel {
   buttonAt(origin, direction) {
     if (!this.axes || !this.buttons.length) return null;
     const { x, y, z } = this.axes;
-    const denominator = direction[0] * z[0] + direction[1] * z[1] + direction[2] * z[2];
+    const denominator = dot(direction, z);
     if (Math.abs(denominator) < 1e-6) return null;
-    const toPanel = sub(this.position, origin);
-    const t = (toPanel[0] * z[0] + toPanel[1] * z[1] + toPanel[2] * z[2]) / denominator;
+    const t = dot(sub(this.position, origin), z) / denominator;
     if (t <= 0) return null;
     const offset = sub(add(origin, scale(direction, t)), this.position);
-    const px = ((offset[0] * x[0] + offset[1] * x[1] + offset[2] * x[2]) / PANEL_WIDTH_M + 0.5) * CANVAS_WIDTH;
-    const py = (0.5 - (offset[0] * y[0] + offset[1] * y[1] + offset[2] * y[2]) / PANEL_HEIGHT_M) * CANVAS_HEIGHT;
+    const px = (dot(offset, x) / PANEL_WIDTH_M + 0.5) * CANVAS_WIDTH;
+    const py = (0.5 - dot(offset, y) / PANEL_HEIGHT_M) * CANVAS_HEIGHT;
     const index = this.buttons.findIndex((button, i) => {
       const r = this.buttonRect(i);
       return button.enabled && px >= r.x && px <= r.x + r.width && py >= r.y && py <= r.y + r.height;

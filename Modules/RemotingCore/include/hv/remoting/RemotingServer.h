@@ -4,8 +4,9 @@
 // The HTTP(S) + WebSocket server of the remoting protocol (Documentation/RemotingProtocol.md),
 // on Boost.Beast. It runs its own network thread; the render loop talks to it through
 // thread-safe calls: take the newest pose and the queued interactions, publish an encoded
-// frame (latest wins: a client that is still sending gets only the newest frame next), publish
-// statistics. A slow client never blocks the caller.
+// frame (latest wins: a client that is still sending, or that acknowledges decoded frames and
+// has the window in flight, gets only the newest frame next), publish statistics. A slow
+// client never blocks the caller.
 #ifndef hv_remoting_RemotingServer_h
 #define hv_remoting_RemotingServer_h
 
