@@ -120,6 +120,19 @@ public:
 
   ///@{
   /**
+   * Russian roulette on secondary rays whose contribution is known before they are traced
+   * (shadow rays, and the last phase/BRDF continuation, which can only add the environment
+   * it reaches): a ray expected to add less than this fraction of what the mean environment
+   * would give is traced with probability (its contribution / that level) and weighted up,
+   * which keeps the image unbiased. Default 0.5; 0 traces every ray. Larger values render
+   * faster and noisier (Documentation/Benchmarks.md has the measured trade-off).
+   */
+  vtkSetClampMacro(SecondaryRayRoulette, double, 0.0, 1000.0);
+  vtkGetMacro(SecondaryRayRoulette, double);
+  ///@}
+
+  ///@{
+  /**
    * Henyey-Greenstein anisotropy g of volume scattering events, in (-1, 1); 0 is isotropic.
    */
   vtkSetClampMacro(Anisotropy, double, -0.99, 0.99);
@@ -356,6 +369,7 @@ protected:
   int SamplesPerPixel = 2;
   int MaximumBounces = 1;
   int RussianRouletteStartBounce = 3;
+  double SecondaryRayRoulette = 0.5;
   double Anisotropy = 0.0;
   double DensityScale = 1.0;
   double SurfaceScatteringFactor = 5.0;

@@ -12,6 +12,7 @@
 #include "vtkCommand.h"
 #include "vtkEnvironmentMapReader.h"
 #include "vtkFixedPointVolumeRayCastMapper.h"
+#include "vtkFloatArray.h"
 #include "vtkGPUVolumeRayCastMapper.h"
 #include "vtkImageData.h"
 #include "vtkLight.h"
@@ -21,6 +22,7 @@
 #include "vtkNew.h"
 #include "vtkPNGWriter.h"
 #include "vtkPathTracedVolumeMapper.h"
+#include "vtkPointData.h"
 #include "vtkRenderWindow.h"
 #include "vtkRenderer.h"
 #include "vtkSMPTools.h"
@@ -58,6 +60,10 @@ struct Options
   int SamplesPerPixel = 2;
   int Frames = 5;
   int Threads = 0;
+  // Secondary-ray roulette levels to time for the path-traced model; the first is the one
+  // compared with the fixed-point mapper.
+  std::vector<double> Roulette = { 0.5, 0.0 };
+  int NoiseFrames = 8;
   double InterpupillaryDistance = 64.0;
   bool References = true;
   std::string SaveImages;
@@ -93,9 +99,15 @@ Rendering
       --model NAMES        HoloVolume illumination models to time, comma-separated:
                            path-traced, emission-absorption, gradient-phong,
                            prefiltered-environment, or all [path-traced]
+      --roulette LEVELS    vtkPathTracedVolumeMapper::SecondaryRayRoulette values to time the
+                           path-traced model with, comma-separated; the first is compared with
+                           the fixed-point mapper, 0 traces every secondary ray [0.5,0]
 
 Measurement
       --frames N           timed stereo frames per mapper, after the first [5]
+      --noise-frames N     further path-traced frames whose pixel-wise spread gives the noise
+                           of one frame, so faster settings can be weighed against noisier
+                           ones; 0 skips it [8]
       --threads N          worker threads for every CPU renderer: vtkSMPTools for the path
                            tracer, vtkMultiThreader for the fixed-point ray caster and
                            LP_NUM_THREADS for Mesa llvmpipe (unless already set) [all cores]
@@ -105,6 +117,10 @@ Measurement
   -h, --help               this text
 
 Path-traced samples per second = 2 eyes x width x height x spp / seconds per stereo frame.
+Noise of a path-traced frame: the pixel-wise variance of the left eye's linear luminance over
+the noise frames (independent frames of the same view), averaged over the pixels the volume
+covers fully, relative to their squared mean. Efficiency = 1 / (noise^2 x frame time), the
+usual Monte-Carlo figure of merit, relative to the last roulette level's.
 The VTK ray casters shoot one ray per pixel, so their rate is rays per second
 (2 x width x height / seconds); ray-cast steps and path samples are not comparable units.
 )";
@@ -174,6 +190,26 @@ bool ParseArguments(int argc, char* argv[], Options& options)
         return false;
       }
     }
+    else if (argument == "--roulette")
+    {
+      options.Roulette.clear();
+      std::stringstream stream(value());
+      std::string level;
+      while (std::getline(stream, level, ','))
+      {
+        char* end = nullptr;
+        const double k = std::strtod(level.c_str(), &end);
+        if (level.empty() || *end != '\0' || !(k >= 0.0))
+        {
+          std::cerr << "holovolume-benchmark: --roulette takes non-negative numbers separated "
+                       "by commas, e.g. 0.5,0\n";
+          return false;
+        }
+        options.Roulette.push_back(k);
+      }
+    }
+    else if (argument == "--noise-frames")
+      options.NoiseFrames = std::atoi(value());
     else if (argument == "--frames")
       options.Frames = std::atoi(value());
     else if (argument == "--threads")
@@ -189,10 +225,11 @@ bool ParseArguments(int argc, char* argv[], Options& options)
     }
   }
   if (options.Width < 1 || options.Height < 1 || options.SamplesPerPixel < 1 ||
-    options.Frames < 1 || options.Threads < 0)
+    options.Frames < 1 || options.Threads < 0 || options.NoiseFrames < 0 ||
+    options.Roulette.empty())
   {
-    std::cerr
-      << "holovolume-benchmark: width, height, spp and frames must be positive, threads >= 0\n";
+    std::cerr << "holovolume-benchmark: width, height, spp and frames must be positive, threads "
+                 "and noise frames >= 0, and --roulette needs a level\n";
     return false;
   }
   return true;
@@ -293,6 +330,8 @@ struct Result
   double CPUSeconds = 0.0;   // process CPU time over the timed frames
   double WorkPerFrame = 0.0; // samples (path tracer) or rays (ray casters) per stereo frame
   const char* WorkUnit = "";
+  double Roulette = -1.0;      // SecondaryRayRoulette of a path-traced row
+  double RelativeNoise = -1.0; // RMS / mean luminance of one frame; < 0 when not measured
   Mask Masks[2];
 };
 
@@ -342,12 +381,76 @@ const char* ModelLabel(const std::string& model)
   return "PathTraced";
 }
 
+// The noise of one frame: renders `frames` independent frames of the same view and returns the
+// pixel-wise variance of the left eye's linear luminance, averaged over the pixels the volume
+// covers in every frame, divided by their squared mean luminance (its square root: RMS / mean).
+// Returns -1 if a frame fails or nothing is covered.
+template <typename RenderFrame>
+double MeasureRelativeNoise(vtkPathTracedVolumeMapper* mapper, int frames, RenderFrame render)
+{
+  std::vector<double> sum, sumOfSquares;
+  std::vector<unsigned char> alwaysCovered;
+  for (int frame = 0; frame < frames; ++frame)
+  {
+    if (!render())
+    {
+      return -1.0;
+    }
+    vtkFloatArray* radiance =
+      vtkFloatArray::SafeDownCast(mapper->GetEyeOutput(0)->GetPointData()->GetArray("Radiance"));
+    const vtkIdType count = radiance->GetNumberOfTuples();
+    if (sum.empty())
+    {
+      sum.assign(count, 0.0);
+      sumOfSquares.assign(count, 0.0);
+      alwaysCovered.assign(count, 1);
+    }
+    const float* rgba = radiance->GetPointer(0);
+    for (vtkIdType i = 0; i < count; ++i)
+    {
+      // Pixels partly covered carry the silhouette's coverage noise too: leave them out.
+      alwaysCovered[i] = alwaysCovered[i] && rgba[4 * i + 3] >= 1.0f;
+      const double y = 0.2126 * rgba[4 * i] + 0.7152 * rgba[4 * i + 1] + 0.0722 * rgba[4 * i + 2];
+      sum[i] += y;
+      sumOfSquares[i] += y * y;
+    }
+  }
+  double meanVariance = 0.0, meanLuminance = 0.0;
+  std::size_t pixels = 0;
+  for (std::size_t i = 0; i < sum.size(); ++i)
+  {
+    if (!alwaysCovered[i])
+    {
+      continue;
+    }
+    const double mean = sum[i] / frames;
+    meanVariance += (sumOfSquares[i] - frames * mean * mean) / (frames - 1);
+    meanLuminance += mean;
+    ++pixels;
+  }
+  if (pixels == 0 || frames < 2 || meanLuminance <= 0.0)
+  {
+    return -1.0;
+  }
+  meanVariance /= pixels;
+  meanLuminance /= pixels;
+  return std::sqrt(std::max(meanVariance, 0.0)) / meanLuminance;
+}
+
 Result TimePathTracer(vtkPathTracedVolumeMapper* mapper, vtkVolume* volume,
-  const std::string& model, vtkMatrix4x4* const* views, vtkMatrix4x4* const* projections,
-  vtkLightCollection* lights, const Options& options)
+  const std::string& model, double roulette, vtkMatrix4x4* const* views,
+  vtkMatrix4x4* const* projections, vtkLightCollection* lights, const Options& options)
 {
   Result result;
   result.Mapper = std::string("vtkPathTracedVolumeMapper (") + ModelLabel(model) + ")";
+  if (model == "path-traced")
+  {
+    std::ostringstream label;
+    label << "vtkPathTracedVolumeMapper (PathTraced, roulette " << roulette << ")";
+    result.Mapper = label.str();
+    result.Roulette = roulette;
+    mapper->SetSecondaryRayRoulette(roulette);
+  }
   result.Model = model;
   result.WorkPerFrame = 2.0 * options.Width * options.Height * options.SamplesPerPixel;
   result.WorkUnit = "samples/s";
@@ -393,6 +496,12 @@ Result TimePathTracer(vtkPathTracedVolumeMapper* mapper, vtkVolume* volume,
   result.CPUSeconds = ProcessCPUSeconds() - cpuStart;
   std::cerr << " done\n";
   result.Ran = true;
+  if (model == "path-traced" && options.NoiseFrames > 1)
+  {
+    std::cerr << "    noise over " << options.NoiseFrames << " frames..." << std::flush;
+    result.RelativeNoise = MeasureRelativeNoise(mapper, options.NoiseFrames, renderStereoFrame);
+    std::cerr << " done\n";
+  }
 
   for (int eye = 0; eye < 2; ++eye)
   {
@@ -668,8 +777,13 @@ int main(int argc, char* argv[])
   std::vector<Result> results;
   for (const std::string& model : options.Models)
   {
-    results.push_back(
-      TimePathTracer(pathTracer, pathTracedVolume, model, views, projections, lights, options));
+    const std::vector<double> levels =
+      model == "path-traced" ? options.Roulette : std::vector<double>{ 0.0 };
+    for (double roulette : levels)
+    {
+      results.push_back(TimePathTracer(
+        pathTracer, pathTracedVolume, model, roulette, views, projections, lights, options));
+    }
   }
 
   bool haveDisplay = false;
@@ -756,7 +870,7 @@ int main(int argc, char* argv[])
   std::printf(
     "timed frames per mapper: %d after the first; wall-clock, std::chrono::steady_clock\n\n",
     options.Frames);
-  std::printf("%-51s %12s %24s %10s %20s\n", "mapper", "first frame", "median ms/stereo frame",
+  std::printf("%-56s %12s %24s %10s %20s\n", "mapper", "first frame", "median ms/stereo frame",
     "mean", "rays or samples/s");
   const Result* pathTraced = nullptr;
   const Result* fixedPoint = nullptr;
@@ -764,7 +878,7 @@ int main(int argc, char* argv[])
   {
     if (!result.Ran)
     {
-      std::printf("%-51s %s\n", result.Mapper.c_str(), result.Note.c_str());
+      std::printf("%-56s %s\n", result.Mapper.c_str(), result.Note.c_str());
       continue;
     }
     const double median = Median(result.FrameMs);
@@ -773,14 +887,15 @@ int main(int argc, char* argv[])
       rate, sizeof(rate), "%.3g %s", result.WorkPerFrame / (median / 1000.0), result.WorkUnit);
     char first[32];
     std::snprintf(first, sizeof(first), "%.0f ms", result.FirstFrameMs);
-    std::printf("%-51s %12s %24.1f %10.1f %20s\n", result.Mapper.c_str(), first, median,
+    std::printf("%-56s %12s %24.1f %10.1f %20s\n", result.Mapper.c_str(), first, median,
       Mean(result.FrameMs), rate);
     if (!result.Note.empty())
     {
-      std::printf("%-51s (%s)\n", "", result.Note.c_str());
+      std::printf("%-56s (%s)\n", "", result.Note.c_str());
     }
-    // The path-traced row when timed, otherwise the first HoloVolume model's.
-    if (!result.Model.empty() && (!pathTraced || result.Model == "path-traced"))
+    // The first path-traced row when timed, otherwise the first HoloVolume model's.
+    if (!result.Model.empty() &&
+      (!pathTraced || (result.Model == "path-traced" && pathTraced->Model != "path-traced")))
     {
       pathTraced = &result;
     }
@@ -800,6 +915,35 @@ int main(int argc, char* argv[])
     std::printf("ratio path-traced / fixed-point: not available (fixed-point row missing)\n");
   }
 
+  // Roulette trades noise for time: weigh them together.
+  const Result* noiseReference = nullptr;
+  for (const Result& result : results)
+  {
+    if (result.Ran && result.RelativeNoise > 0.0)
+    {
+      noiseReference = &result;
+    }
+  }
+  if (noiseReference)
+  {
+    std::printf("\nnoise of one path-traced frame over %d frames (left eye, pixels fully covered; "
+                "efficiency = 1 / (noise^2 x time), relative to roulette %g):\n",
+      options.NoiseFrames, noiseReference->Roulette);
+    const double referenceMerit = 1.0 /
+      (noiseReference->RelativeNoise * noiseReference->RelativeNoise *
+        Median(noiseReference->FrameMs));
+    for (const Result& result : results)
+    {
+      if (result.Ran && result.RelativeNoise > 0.0)
+      {
+        const double merit =
+          1.0 / (result.RelativeNoise * result.RelativeNoise * Median(result.FrameMs));
+        std::printf("  %-56s RMS/mean %.4f   efficiency %.2f\n", result.Mapper.c_str(),
+          result.RelativeNoise, merit / referenceMerit);
+      }
+    }
+  }
+
   // Wall-clock times are only comparable if every mapper had the cores to itself: show how busy
   // the process kept them, so a run disturbed by other load can be recognised and repeated.
   std::printf("\nCPU use over the timed frames (process CPU time / wall time / %d thread%s):\n",
@@ -814,7 +958,7 @@ int main(int argc, char* argv[])
     const double wallSeconds =
       std::accumulate(result.FrameMs.begin(), result.FrameMs.end(), 0.0) / 1000.0;
     const double use = result.CPUSeconds / (wallSeconds * threads);
-    std::printf("  %-51s %5.0f%%\n", result.Mapper.c_str(), 100.0 * use);
+    std::printf("  %-56s %5.0f%%\n", result.Mapper.c_str(), 100.0 * use);
     // The path tracer is parallel throughout, so low use there means competing processes.
     disturbed = disturbed || (!result.Model.empty() && use < 0.8);
   }
@@ -837,7 +981,7 @@ int main(int argc, char* argv[])
       {
         continue;
       }
-      std::printf("  %-51s %5.1f%% / %5.1f%%   IoU %.3f / %.3f\n", result.Mapper.c_str(),
+      std::printf("  %-56s %5.1f%% / %5.1f%%   IoU %.3f / %.3f\n", result.Mapper.c_str(),
         100.0 * CoveredFraction(result.Masks[0]), 100.0 * CoveredFraction(result.Masks[1]),
         SilhouetteAgreement(reference.Masks[0], result.Masks[0]),
         SilhouetteAgreement(reference.Masks[1], result.Masks[1]));

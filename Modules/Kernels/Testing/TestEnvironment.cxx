@@ -181,7 +181,7 @@ TEST(Distribution2D, SamplesFollowTheFunction)
   for (int i = 0; i < n; ++i)
   {
     float pdf = -1.0f;
-    const glm::vec2 uv = view.sample(rng.nextFloat(), rng.nextFloat(), pdf);
+    const glm::vec2 uv = view.sample(rng.nextFloat(), rng.nextFloat(), rng.nextFloat(), pdf);
     ASSERT_GE(uv.x, 0.0f);
     ASSERT_LT(uv.x, 1.0f);
     ASSERT_GE(uv.y, 0.0f);
@@ -225,7 +225,8 @@ TEST(EnvironmentMap, SampledPdfMatchesPdfOfDirection)
     for (int i = 0; i < n; ++i)
     {
       float pdf = 0.0f;
-      const glm::vec3 d = env.sampleDirection(rng.nextFloat(), rng.nextFloat(), pdf);
+      const glm::vec3 d =
+        env.sampleDirection(rng.nextFloat(), rng.nextFloat(), rng.nextFloat(), pdf);
       ASSERT_NEAR(glm::length(d), 1.0f, 1e-5f);
       ASSERT_GT(pdf, 0.0f);
       const float lookup = env.pdf(d);
@@ -305,7 +306,8 @@ TEST(EnvironmentMap, ImportanceSamplingMatchesUniformWithLowerVariance)
     for (int i = 0; i < 200000; ++i)
     {
       float pdf;
-      const glm::vec3 d = importance.sampleDirection(rng.nextFloat(), rng.nextFloat(), pdf);
+      const glm::vec3 d =
+        importance.sampleDirection(rng.nextFloat(), rng.nextFloat(), rng.nextFloat(), pdf);
       is.add(pdf > 0.0f
           ? hv::luminance(importance.evaluate(d)) * std::max(0.0f, glm::dot(n, d)) / pdf
           : 0.0);
@@ -313,7 +315,8 @@ TEST(EnvironmentMap, ImportanceSamplingMatchesUniformWithLowerVariance)
     for (int i = 0; i < 2000000; ++i)
     {
       float pdf;
-      const glm::vec3 d = uniform.sampleDirection(rng.nextFloat(), rng.nextFloat(), pdf);
+      const glm::vec3 d =
+        uniform.sampleDirection(rng.nextFloat(), rng.nextFloat(), rng.nextFloat(), pdf);
       ASSERT_FLOAT_EQ(pdf, hv::InvFourPi);
       us.add(hv::luminance(uniform.evaluate(d)) * std::max(0.0f, glm::dot(n, d)) / pdf);
     }
@@ -489,7 +492,7 @@ void checkLargeMap(int width, int height)
   for (int i = 0; i < samples; ++i)
   {
     float pdf;
-    const glm::vec3 d = env.sampleDirection(rng.nextFloat(), rng.nextFloat(), pdf);
+    const glm::vec3 d = env.sampleDirection(rng.nextFloat(), rng.nextFloat(), rng.nextFloat(), pdf);
     ASSERT_GT(pdf, 0.0f);
     mismatches += std::abs(env.pdf(d) - pdf) > 1e-3f * pdf ? 1 : 0;
     is.add(hv::luminance(env.evaluate(d)) * std::max(0.0f, glm::dot(n, d)) / pdf);
@@ -498,7 +501,8 @@ void checkLargeMap(int width, int height)
   for (int i = 0; i < 10 * samples; ++i)
   {
     float pdf;
-    const glm::vec3 d = uniform.sampleDirection(rng.nextFloat(), rng.nextFloat(), pdf);
+    const glm::vec3 d =
+      uniform.sampleDirection(rng.nextFloat(), rng.nextFloat(), rng.nextFloat(), pdf);
     us.add(hv::luminance(uniform.evaluate(d)) * std::max(0.0f, glm::dot(n, d)) / pdf);
   }
   const double ratio = us.variance() / is.variance();

@@ -701,3 +701,168 @@ TEST(VolumeGrid, GradientMagnitudesFollowScaleButNotRotation)
   EXPECT_TRUE(grid.setIndexToWorld(glm::scale(rotated, glm::vec3(2.0f))));
   EXPECT_NEAR(grid.maximumGradientMagnitude(), 0.5f * original, 1e-4f * original);
 }
+
+namespace
+{
+// A sparse random occupancy: scalar 1 in a few small blobs, 0 elsewhere, under a table that
+// gives 0 no extinction, with 2-voxel macrocells as the mapper uses.
+void makeSparseBlobs(hv::VolumeGrid& grid, const glm::ivec3& dims, std::uint32_t seed)
+{
+  hv::Pcg32 rng = hv::makePixelRng(0u, 0u, 0u, seed);
+  std::vector<glm::vec3> centres(6);
+  for (glm::vec3& c : centres)
+  {
+    c = glm::vec3(rng.nextFloat(), rng.nextFloat(), rng.nextFloat()) * glm::vec3(dims - 1);
+  }
+  grid.setCellSize(2);
+  grid.setIndexToWorld(indexToWorld());
+  grid.setScalars(dims,
+    hvtest::sampleField(dims,
+      [&](const glm::vec3& p)
+      {
+        for (const glm::vec3& c : centres)
+        {
+          if (glm::length(p - c) < 1.5f)
+          {
+            return 1.0f;
+          }
+        }
+        return 0.0f;
+      }));
+  grid.setTransferFunction({ 0.0f, 0.5f }, std::vector<float>(6, 1.0f), 1.0f, 1.0f);
+}
+}
+
+// The distance map of each ray octant is the exact Chebyshev distance from an empty cell to
+// the nearest non-empty cell in the orthant ahead of it (checked against brute force).
+TEST(Majorant, OctantDistanceMapsAreExact)
+{
+  const glm::ivec3 dims(23, 17, 30);
+  hv::VolumeGrid grid;
+  makeSparseBlobs(grid, dims, 51u);
+  const hv::VolumeView v = grid.view();
+  ASSERT_NE(v.emptyDistance, nullptr);
+  const glm::ivec3 n = v.majorantDims;
+  std::vector<glm::ivec3> cells, occupied;
+  for (int z = 0; z < n.z; ++z)
+  {
+    for (int y = 0; y < n.y; ++y)
+    {
+      for (int x = 0; x < n.x; ++x)
+      {
+        cells.emplace_back(x, y, z);
+        if (v.majorantOfCell(cells.back()) > 0.0f)
+        {
+          occupied.push_back(cells.back());
+        }
+      }
+    }
+  }
+  ASSERT_GT(occupied.size(), 5u);
+  ASSERT_LT(occupied.size(), static_cast<std::size_t>(n.x * n.y * n.z) / 4);
+  int mismatches = 0, leapable = 0;
+  for (int octant = 0; octant < 8; ++octant)
+  {
+    const glm::ivec3 s((octant & 1) ? -1 : 1, (octant & 2) ? -1 : 1, (octant & 4) ? -1 : 1);
+    for (const glm::ivec3& c : cells)
+    {
+      int expected = 255;
+      for (const glm::ivec3& o : occupied)
+      {
+        const glm::ivec3 ahead = (o - c) * s;
+        if (ahead.x >= 0 && ahead.y >= 0 && ahead.z >= 0)
+        {
+          expected = std::min(expected, std::max(ahead.x, std::max(ahead.y, ahead.z)));
+        }
+      }
+      mismatches += v.emptyDistanceOfCell(c, octant) != expected ? 1 : 0;
+      leapable += expected > 1 ? 1 : 0;
+    }
+  }
+  EXPECT_EQ(mismatches, 0);
+  EXPECT_GT(leapable, 0); // the test exercises leaps at all
+}
+
+// Leaping over empty space must not change which non-empty cells a ray visits: the iterator
+// with the distance maps yields the same non-empty cells and entry points as plain 3D-DDA,
+// except cells a ray only grazes for less than 0.1 % of a cell (the leap lands a hair past
+// the face of the empty box).
+TEST(Majorant, LeapsVisitTheSameNonEmptyCellsAsPlainTraversal)
+{
+  const glm::ivec3 dims(23, 17, 30);
+  hv::VolumeGrid grid;
+  makeSparseBlobs(grid, dims, 52u);
+  const hv::VolumeView withLeaps = grid.view();
+  hv::VolumeView plain = withLeaps;
+  plain.emptyDistance = nullptr;
+  struct Visit
+  {
+    glm::ivec3 cell;
+    float entry, exit;
+  };
+  auto visits = [](const hv::VolumeView& v, const hv::IndexRay& ray, int& segments)
+  {
+    std::vector<Visit> result;
+    hv::MajorantIterator it;
+    it.begin(v, ray);
+    float exit, majorant;
+    segments = 0;
+    while (it.segment(v, exit, majorant))
+    {
+      ++segments;
+      if (majorant > 0.0f)
+      {
+        result.push_back({ it.cell, it.t, exit });
+      }
+      it.advance(v, majorant);
+    }
+    return result;
+  };
+  hv::Pcg32 rng = hv::makePixelRng(0u, 0u, 0u, 53u);
+  const glm::vec3 centre = 0.5f *
+    (glm::vec3(indexToWorld() * glm::vec4(0, 0, 0, 1)) +
+      glm::vec3(indexToWorld() * glm::vec4(glm::vec3(dims - 1), 1)));
+  int rays = 0, segmentsPlain = 0, segmentsLeaping = 0, visited = 0;
+  for (int i = 0; i < 4000; ++i)
+  {
+    const glm::vec3 direction = hv::sampleUniformSphere(rng.nextFloat(), rng.nextFloat());
+    const glm::vec3 offset =
+      glm::vec3(rng.nextFloat(), rng.nextFloat(), rng.nextFloat()) * 6.0f - 3.0f;
+    const glm::vec3 origin = centre + offset - 20.0f * direction;
+    hv::IndexRay ray;
+    if (!hv::makeIndexRay(
+          withLeaps, hv::ClippingPlanes(), origin, direction, 0.0f, hv::Infinity, ray))
+    {
+      continue;
+    }
+    ++rays;
+    int a = 0, b = 0;
+    const std::vector<Visit> expected = visits(plain, ray, a);
+    const std::vector<Visit> actual = visits(withLeaps, ray, b);
+    segmentsPlain += a;
+    segmentsLeaping += b;
+    std::size_t j = 0;
+    for (const Visit& e : expected)
+    {
+      while (j < actual.size() && actual[j].cell != e.cell)
+      {
+        ++j;
+      }
+      const bool grazed = e.exit - e.entry < 1e-3f * 2.0f;
+      if (j == actual.size())
+      {
+        ASSERT_TRUE(grazed) << "ray " << i << " leapt over a non-empty cell";
+        j = 0;
+        continue;
+      }
+      EXPECT_NEAR(actual[j].entry, e.entry, 1e-3f) << "ray " << i;
+      EXPECT_NEAR(actual[j].exit, e.exit, 1e-4f) << "ray " << i;
+      ++visited;
+    }
+  }
+  std::printf("[ info ] %d rays: %d segments with leaps, %d without; %d non-empty visits\n", rays,
+    segmentsLeaping, segmentsPlain, visited);
+  EXPECT_GT(rays, 3000);
+  EXPECT_GT(visited, 100);
+  EXPECT_LT(segmentsLeaping, segmentsPlain / 2); // the leaps do skip
+}

@@ -13,42 +13,70 @@ void Distribution2D::build(int width, int height, std::vector<float> f)
   this->Width = width;
   this->Height = height;
   this->Function = std::move(f);
-  this->ConditionalCdf.assign(static_cast<std::size_t>(height) * (width + 1), 0.0f);
-  this->RowIntegral.assign(height, 0.0f);
-  this->MarginalCdf.assign(height + 1, 0.0f);
-  // Accumulate in double: a 2K map has millions of texels and a small sun.
-  std::vector<double> rowSum(height, 0.0);
-  for (int row = 0; row < height; ++row)
-  {
-    float* cdf = this->ConditionalCdf.data() + static_cast<std::size_t>(row) * (width + 1);
-    double running = 0.0;
-    for (int column = 0; column < width; ++column)
-    {
-      running += this->Function[static_cast<std::size_t>(row) * width + column];
-      cdf[column + 1] = static_cast<float>(running);
-    }
-    rowSum[row] = running;
-    this->RowIntegral[row] = static_cast<float>(running / width);
-    for (int column = 1; column <= width; ++column)
-    {
-      cdf[column] = running > 0.0 ? static_cast<float>(cdf[column] / running)
-                                  : static_cast<float>(column) / width;
-    }
-    cdf[width] = 1.0f;
-  }
+  const std::size_t count = this->Function.size();
+  // Sum in double: a 2K map has millions of texels and a small sun.
   double total = 0.0;
-  for (int row = 0; row < height; ++row)
+  for (float value : this->Function)
   {
-    total += rowSum[row];
-    this->MarginalCdf[row + 1] = static_cast<float>(total);
+    total += value;
   }
-  for (int row = 1; row <= height; ++row)
+  this->Integral = static_cast<float>(total / static_cast<double>(count));
+  this->Table.assign(count, AliasEntry{ 1.0f, 0, 0.0f, 0.0f });
+  if (!(total > 0.0))
   {
-    this->MarginalCdf[row] = total > 0.0 ? static_cast<float>(this->MarginalCdf[row] / total)
-                                         : static_cast<float>(row) / height;
+    return;
   }
-  this->MarginalCdf[height] = 1.0f;
-  this->Integral = static_cast<float>(total / (static_cast<double>(width) * height));
+
+  // Vose's alias method: cells whose scaled probability n p_i is below one are topped up
+  // from cells above one, each cell ending with at most one alias.
+  std::vector<double> scaled(count);
+  std::vector<std::size_t> small, large;
+  for (std::size_t i = 0; i < count; ++i)
+  {
+    scaled[i] = this->Function[i] * static_cast<double>(count) / total;
+    (scaled[i] < 1.0 ? small : large).push_back(i);
+  }
+  while (!small.empty() && !large.empty())
+  {
+    const std::size_t less = small.back();
+    small.pop_back();
+    const std::size_t more = large.back();
+    this->Table[less].keep = static_cast<float>(scaled[less]);
+    this->Table[less].alias = static_cast<int>(more);
+    scaled[more] -= 1.0 - scaled[less];
+    if (scaled[more] < 1.0)
+    {
+      large.pop_back();
+      small.push_back(more);
+    }
+  }
+  // What is left is one up to rounding; a cell of zero weight left over (rounding drained
+  // the large cells first) must still never be drawn, so it hands every draw to the last
+  // cell that had weight.
+  std::size_t positive = 0;
+  for (std::size_t i = 0; i < count; ++i)
+  {
+    if (this->Function[i] > 0.0f)
+    {
+      positive = i;
+    }
+  }
+  for (std::size_t i : small)
+  {
+    const bool empty = this->Function[i] <= 0.0f;
+    this->Table[i].keep = empty ? 0.0f : 1.0f;
+    this->Table[i].alias = static_cast<int>(empty ? positive : i);
+  }
+  for (std::size_t i : large)
+  {
+    this->Table[i].keep = 1.0f;
+    this->Table[i].alias = static_cast<int>(i);
+  }
+  for (AliasEntry& entry : this->Table)
+  {
+    entry.pdf = this->Function[&entry - this->Table.data()] / this->Integral;
+    entry.aliasPdf = this->Function[entry.alias] / this->Integral;
+  }
 }
 
 Distribution2DView Distribution2D::view() const
@@ -57,9 +85,7 @@ Distribution2DView Distribution2D::view() const
   v.width = this->Width;
   v.height = this->Height;
   v.function = this->Function.empty() ? nullptr : this->Function.data();
-  v.conditionalCdf = this->ConditionalCdf.data();
-  v.rowIntegral = this->RowIntegral.data();
-  v.marginalCdf = this->MarginalCdf.data();
+  v.table = this->Table.data();
   v.integral = this->Integral;
   return v;
 }
@@ -204,6 +230,8 @@ EnvironmentView EnvironmentMap::view() const
   v.worldToMap = this->WorldToMap;
   v.mapToWorld = glm::transpose(this->WorldToMap);
   v.uniformRadiance = this->UniformRadiance;
+  // L_00 = Y_00 * 4 pi * mean and Y_00 = 1 / sqrt(4 pi), so mean = L_00 * Y_00.
+  v.meanRadiance = this->Radiance.empty() ? this->UniformRadiance : this->SH[0] * 0.282095f;
   v.scale = this->Scale;
   v.distribution = this->Distribution.view();
   v.importanceSampling = this->ImportanceSampling;

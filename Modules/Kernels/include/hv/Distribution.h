@@ -7,56 +7,54 @@
 
 namespace hv
 {
-// Index of the CDF segment containing u: the largest i in [0, count) with cdf[i] <= u.
-// cdf has count + 1 entries, cdf[0] = 0 and cdf[count] = 1.
-HV_FUNCTION int findCdfSegment(const float* cdf, int count, float u)
+// One cell of an alias table (Walker 1977; Vose 1991): the cell keeps a draw with probability
+// `keep` and hands it to `alias` otherwise. The densities of both candidates ride along so a
+// sample reads one 16-byte entry.
+struct AliasEntry
 {
-  int lo = 0;
-  int hi = count; // invariant: cdf[lo] <= u < cdf[hi] (for u < 1)
-  while (hi - lo > 1)
-  {
-    const int mid = (lo + hi) / 2;
-    if (cdf[mid] <= u)
-    {
-      lo = mid;
-    }
-    else
-    {
-      hi = mid;
-    }
-  }
-  return lo;
-}
+  float keep;
+  int alias;
+  float pdf;      // density of this cell over [0,1]^2: f / integral
+  float aliasPdf; // density of the alias cell
+};
 
-// Device-side view of a piecewise-constant 2D distribution on [0,1]^2 (Pharr et al.,
-// "Physically Based Rendering", 3rd ed., Sec. 13.6.7): a marginal density over rows and one
-// conditional density per row. Built on the host by hv::Distribution2D.
+// A piecewise-constant distribution over [0,1]^2 on a width x height grid of cells.
 struct Distribution2DView
 {
   int width = 0;
   int height = 0;
-  const float* function = nullptr;       // width * height, row-major, the unnormalised f
-  const float* conditionalCdf = nullptr; // height * (width + 1)
-  const float* rowIntegral = nullptr;    // height: integral of f over u for each row
-  const float* marginalCdf = nullptr;    // height + 1
-  float integral = 0.0f;                 // integral of f over [0,1]^2
+  const float* function = nullptr;   // width * height, row-major, the unnormalised f
+  const AliasEntry* table = nullptr; // width * height
+  float integral = 0.0f;             // integral of f over [0,1]^2
 
   HV_FUNCTION bool valid() const { return this->function != nullptr && this->integral > 0.0f; }
 
-  // Continuous sample in [0,1)^2 with density pdf(u,v) = f(u,v) / integral.
-  HV_FUNCTION glm::vec2 sample(float u1, float u2, float& pdf) const
+  // Continuous sample in [0,1)^2 with density pdf(u,v) = f(u,v) / integral, from three
+  // uniform numbers: u1 picks a cell, u2 decides between it and its alias and, rescaled,
+  // places the sample across the cell, u3 places it down the cell. O(1) with one table read,
+  // where inverting marginal and conditional CDFs takes two binary searches of dependent
+  // loads (measured: 5 % of a path-traced frame, mostly cache misses).
+  HV_FUNCTION glm::vec2 sample(float u1, float u2, float u3, float& pdf) const
   {
-    const int row = findCdfSegment(this->marginalCdf, this->height, u1);
-    const float rowLow = this->marginalCdf[row];
-    const float rowHigh = this->marginalCdf[row + 1];
-    const float dv = rowHigh > rowLow ? (u1 - rowLow) / (rowHigh - rowLow) : 0.5f;
-    const float* cdf = this->conditionalCdf + static_cast<long>(row) * (this->width + 1);
-    const int column = findCdfSegment(cdf, this->width, u2);
-    const float du =
-      cdf[column + 1] > cdf[column] ? (u2 - cdf[column]) / (cdf[column + 1] - cdf[column]) : 0.5f;
-    pdf = this->function[static_cast<long>(row) * this->width + column] / this->integral;
-    return glm::vec2(glm::min((column + du) / this->width, 0.99999994f),
-      glm::min((row + dv) / this->height, 0.99999994f));
+    const int count = this->width * this->height;
+    int cell = glm::min(static_cast<int>(u1 * static_cast<float>(count)), count - 1);
+    const AliasEntry entry = this->table[cell];
+    float across;
+    if (u2 < entry.keep)
+    {
+      across = u2 / entry.keep;
+      pdf = entry.pdf;
+    }
+    else
+    {
+      across = (u2 - entry.keep) / (1.0f - entry.keep);
+      cell = entry.alias;
+      pdf = entry.aliasPdf;
+    }
+    const int row = cell / this->width;
+    const int column = cell - row * this->width;
+    return glm::vec2(glm::min((column + glm::min(across, 0.99999994f)) / this->width, 0.99999994f),
+      glm::min((row + u3) / this->height, 0.99999994f));
   }
 
   HV_FUNCTION float pdf(const glm::vec2& uv) const

@@ -21,18 +21,51 @@ struct EnvironmentView
   glm::mat3 worldToMap = glm::mat3(1.0f); // rotation taking world directions into the map frame
   glm::mat3 mapToWorld = glm::mat3(1.0f);
   glm::vec3 uniformRadiance = glm::vec3(1.0f);
+  glm::vec3 meanRadiance = glm::vec3(1.0f); // over the sphere, before scale
   float scale = 1.0f;              // multiplies every radiance value
   Distribution2DView distribution; // over luminance * sin(theta); empty when uniform
   bool importanceSampling = true;
 
   HV_FUNCTION bool isUniform() const { return this->radiance == nullptr; }
 
-  HV_FUNCTION glm::vec3 texel(const glm::vec2& uv) const
+  // The radiance a white isotropic medium would scatter on average: (1 / 4 pi) times the
+  // integral of L over the sphere.
+  HV_FUNCTION glm::vec3 averageRadiance() const { return this->scale * this->meanRadiance; }
+
+  HV_FUNCTION const float* texelAddress(const glm::vec2& uv) const
   {
     const int column = glm::clamp(static_cast<int>(uv.x * this->width), 0, this->width - 1);
     const int row = glm::clamp(static_cast<int>(uv.y * this->height), 0, this->height - 1);
-    const float* value = this->radiance + 3 * (static_cast<long>(row) * this->width + column);
+    return this->radiance + 3 * (static_cast<long>(row) * this->width + column);
+  }
+
+  HV_FUNCTION glm::vec3 texel(const glm::vec2& uv) const
+  {
+    const float* value = this->texelAddress(uv);
     return this->scale * glm::vec3(value[0], value[1], value[2]);
+  }
+
+  // Map coordinates of a world direction; any value for a uniform environment.
+  HV_FUNCTION glm::vec2 mapCoordinates(const glm::vec3& worldDirection) const
+  {
+    return this->isUniform() ? glm::vec2(0.0f)
+                             : directionToEquirectangular(this->worldToMap * worldDirection);
+  }
+
+  // The radiance at map coordinates from mapCoordinates() or sampleDirection().
+  HV_FUNCTION glm::vec3 radianceAt(const glm::vec2& uv) const
+  {
+    return this->isUniform() ? this->scale * this->uniformRadiance : this->texel(uv);
+  }
+
+  // Starts loading the texel at uv: the map is megabytes, so a texel read that has to wait
+  // for memory is worth overlapping with tracing the ray that decides whether it is needed.
+  HV_FUNCTION void prefetch(const glm::vec2& uv) const
+  {
+    if (!this->isUniform())
+    {
+      HV_PREFETCH(this->texelAddress(uv));
+    }
   }
 
   HV_FUNCTION glm::vec3 evaluate(const glm::vec3& worldDirection) const
@@ -82,29 +115,28 @@ struct EnvironmentView
     return this->distribution.pdf(uv) / (2.0f * Pi * Pi * sinTheta);
   }
 
-  HV_FUNCTION glm::vec3 sampleDirection(float u1, float u2, float& solidAnglePdf) const
+  HV_FUNCTION glm::vec3 sampleDirection(float u1, float u2, float u3, float& solidAnglePdf) const
   {
-    glm::vec3 radianceUnused;
-    return this->sampleDirection(u1, u2, solidAnglePdf, radianceUnused);
+    glm::vec2 uvUnused;
+    return this->sampleDirection(u1, u2, u3, solidAnglePdf, uvUnused);
   }
 
-  // Also returns the radiance arriving from the sampled direction, read from the sampled
-  // (u, v) without mapping the direction back.
+  // Also returns the map coordinates of the sampled direction, for radianceAt(), without
+  // mapping the direction back.
   HV_FUNCTION glm::vec3 sampleDirection(
-    float u1, float u2, float& solidAnglePdf, glm::vec3& sampledRadiance) const
+    float u1, float u2, float u3, float& solidAnglePdf, glm::vec2& uv) const
   {
     if (this->isUniform() || !this->importanceSampling || !this->distribution.valid())
     {
       solidAnglePdf = InvFourPi;
       const glm::vec3 direction = sampleUniformSphere(u1, u2);
-      sampledRadiance = this->evaluate(direction);
+      uv = this->mapCoordinates(direction);
       return direction;
     }
     float uvPdf = 0.0f;
-    const glm::vec2 uv = this->distribution.sample(u1, u2, uvPdf);
+    uv = this->distribution.sample(u1, u2, u3, uvPdf);
     const float sinTheta = glm::sin(uv.y * Pi);
     solidAnglePdf = sinTheta > 1e-6f ? uvPdf / (2.0f * Pi * Pi * sinTheta) : 0.0f;
-    sampledRadiance = this->texel(uv);
     return this->mapToWorld * equirectangularToDirection(uv);
   }
 };

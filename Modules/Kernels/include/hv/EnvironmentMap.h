@@ -22,9 +22,7 @@ private:
   int Width = 0;
   int Height = 0;
   std::vector<float> Function;
-  std::vector<float> ConditionalCdf;
-  std::vector<float> RowIntegral;
-  std::vector<float> MarginalCdf;
+  std::vector<AliasEntry> Table;
   float Integral = 0.0f;
 };
 

@@ -16,6 +16,15 @@
 
 #define HV_FUNCTION HV_HOST_DEVICE HV_INLINE
 
+// A hint that `address` will be read soon, so a cache miss can overlap other work.
+#if defined(__CUDA_ARCH__)
+#define HV_PREFETCH(address) ((void)(address))
+#elif defined(__GNUC__) || defined(__clang__)
+#define HV_PREFETCH(address) __builtin_prefetch(address)
+#else
+#define HV_PREFETCH(address) ((void)(address))
+#endif
+
 // GLM's own functions carry __host__ __device__ under nvcc.
 #ifndef GLM_FORCE_CXX17
 #define GLM_FORCE_CXX17

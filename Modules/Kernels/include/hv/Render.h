@@ -32,6 +32,9 @@ struct SceneView
   int rouletteStartBounce = 3;     // Russian roulette from this scatter event on
   float anisotropy = 0.0f;         // Henyey-Greenstein g
   bool environmentVisible = false; // show the environment behind the volume
+  // Russian roulette on secondary rays whose contribution is known before they are traced,
+  // relative to what the mean environment would give (see secondaryRaySurvival); 0: off.
+  float secondaryRayRoulette = 0.5f;
   // Ray-marched models only.
   float stepLength = 1.0f; // world units
   float ambient = 0.1f;
@@ -102,6 +105,43 @@ HV_FUNCTION float transmittanceTowards(const SceneView& scene, const glm::vec3& 
     return 1.0f;
   }
   return estimateTransmittance(scene.volume, ray, rng);
+}
+
+// Survival probability of a secondary ray that can only multiply a known contribution by a
+// visibility or transmittance estimate: shadow rays of next-event estimation, and the last
+// phase/BRDF continuation, which can add nothing but the MIS-weighted environment it reaches.
+// Tracing it with probability q and dividing by q keeps the estimator unbiased (Arvo and Kirk
+// 1990). q = min(1, lum(c) / (k lum(throughput L_mean))): rays that would add less than the
+// fraction k of what the mean environment gives are traced only sometimes, which costs at
+// most (k lum(throughput L_mean))^2 / 4 of variance per ray, since a Bernoulli estimate of
+// value c / q has variance c (c / q - c) <= (c / q)^2 / 4. Under a peaked environment most
+// continuations point at dim sky, where MIS weighs them near one but they carry little.
+HV_FUNCTION float secondaryRaySurvival(
+  const SceneView& scene, const glm::vec3& throughput, const glm::vec3& contribution)
+{
+  const float level =
+    scene.secondaryRayRoulette * luminance(throughput * scene.environment.averageRadiance());
+  if (!(level > 0.0f))
+  {
+    return 1.0f;
+  }
+  return glm::min(luminance(contribution) / level, 1.0f);
+}
+
+// What the roulette assumes the environment sends from a direction sampled with solid-angle
+// density lightPdf (or, for a phase/BRDF sample, where light sampling has that density):
+// importance sampling makes the density proportional to the luminance of the map's block
+// there, so L ~ 4 pi pdf L_mean. Only the survival probability depends on it; the estimate
+// stays unbiased because it is positive wherever the radiance is. Reading the texel instead
+// would cost a cache miss for every ray, also for those the roulette ends.
+HV_FUNCTION glm::vec3 expectedEnvironment(const SceneView& scene, float lightPdf)
+{
+  return (4.0f * Pi * lightPdf) * scene.environment.averageRadiance();
+}
+
+HV_FUNCTION bool survivesRoulette(float survival, Pcg32& rng)
+{
+  return survival >= 1.0f || rng.nextFloat() < survival;
 }
 
 // Monte-Carlo path tracing of the volume (radiative transfer equation with delta tracking,
@@ -183,25 +223,42 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
       {
         // Irradiance pi * I so that a white Lambertian surface facing a light of intensity I
         // has radiance I, as under VTK's Phong lighting.
-        radiance += throughput * density * Pi * intensity *
-          transmittanceTowards(scene, position, toLight, distance, rng);
+        const glm::vec3 unoccluded = throughput * density * Pi * intensity;
+        const float survival = secondaryRaySurvival(scene, throughput, unoccluded);
+        if (survivesRoulette(survival, rng))
+        {
+          radiance +=
+            unoccluded * (transmittanceTowards(scene, position, toLight, distance, rng) / survival);
+        }
       }
     }
     // ... and the environment, importance-sampled, MIS-weighted against the phase/BRDF.
+    // The roulette estimates the radiance from the sampling density (expectedEnvironment), so
+    // the texel is only read, prefetched while the shadow ray is traced, for rays that get
+    // through.
     {
       float lightPdf;
-      glm::vec3 environmentRadiance;
-      const glm::vec3 toLight = scene.environment.sampleDirection(
-        rng.nextFloat(), rng.nextFloat(), lightPdf, environmentRadiance);
+      glm::vec2 uv;
+      const float u1 = rng.nextFloat();
+      const float u2 = rng.nextFloat();
+      const glm::vec3 toLight =
+        scene.environment.sampleDirection(u1, u2, rng.nextFloat(), lightPdf, uv);
+      scene.environment.prefetch(uv);
       const float density =
         scatterDensity(surfaceEvent, normal, direction, toLight, scene.anisotropy);
       if (lightPdf > 0.0f && density > 0.0f)
       {
-        if (environmentRadiance.x + environmentRadiance.y + environmentRadiance.z > 0.0f)
+        const float weight = powerHeuristic(lightPdf, density) * density / lightPdf;
+        const float survival = secondaryRaySurvival(
+          scene, throughput, throughput * weight * expectedEnvironment(scene, lightPdf));
+        if (survivesRoulette(survival, rng))
         {
-          const float weight = powerHeuristic(lightPdf, density);
-          radiance += throughput * environmentRadiance * (density * weight / lightPdf) *
-            transmittanceTowards(scene, position, toLight, Infinity, rng);
+          const float transmittance = transmittanceTowards(scene, position, toLight, Infinity, rng);
+          if (transmittance > 0.0f)
+          {
+            radiance +=
+              throughput * scene.environment.radianceAt(uv) * (weight * transmittance / survival);
+          }
         }
       }
     }
@@ -222,6 +279,26 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
       scatterDensity(surfaceEvent, normal, direction, next, scene.anisotropy);
     if (previousDirectionalPdf <= 0.0f)
     {
+      break;
+    }
+    if (scatterEvents + 1 >= scene.maximumBounces)
+    {
+      // The last continuation adds the environment it reaches, weighted against light
+      // sampling, or nothing if it meets the medium again: the same roulette as a shadow ray.
+      const glm::vec2 uv = scene.environment.mapCoordinates(next);
+      scene.environment.prefetch(uv);
+      const float lightPdf = scene.environment.pdfAt(uv);
+      const float weight = powerHeuristic(previousDirectionalPdf, lightPdf);
+      const float survival = secondaryRaySurvival(
+        scene, throughput, throughput * weight * expectedEnvironment(scene, lightPdf));
+      IndexRay escape;
+      float tUnused;
+      if (weight > 0.0f && survivesRoulette(survival, rng) &&
+        !(makeIndexRay(volume, scene.clipping, position, next, RayEpsilon, Infinity, escape) &&
+          sampleFreeFlight(volume, escape, rng, tUnused)))
+      {
+        radiance += throughput * scene.environment.radianceAt(uv) * (weight / survival);
+      }
       break;
     }
     // Russian roulette only once the throughput has fallen below one (Pharr et al., PBR 3rd
@@ -352,7 +429,7 @@ HV_FUNCTION glm::vec4 marchRay(const SceneView& scene, const glm::vec3& origin,
         transmittance *= 1.0f - alpha;
       }
     }
-    it.advance(volume);
+    it.advance(volume, majorant);
   }
   if (scene.environmentVisible)
   {

@@ -99,8 +99,9 @@ HV_FUNCTION bool makeIndexRay(const VolumeView& volume, const ClippingPlanes& cl
 // 3D-DDA over the majorant grid (Amanatides and Woo 1987): yields the macrocells a ray
 // crosses with their entry/exit parameters, so free-flight sampling can use a local majorant
 // and skip empty cells in one step. Runs of empty cells are leapt over with the grid's
-// Chebyshev distance to the nearest non-empty cell: all cells within distance d - 1 of an
-// empty cell at distance d are empty, so the ray can jump to the exit of that cube.
+// distance map for the ray's octant: an empty cell at distance d has only empty cells in the
+// box of d - 1 cells ahead of it along the ray's direction signs, so the ray can jump to the
+// exit of that box.
 struct MajorantIterator
 {
   glm::ivec3 cell;
@@ -112,6 +113,7 @@ struct MajorantIterator
   glm::vec3 inverseDirection;
   float t;
   float tEnd;
+  int octant; // sign bits of the direction, set for negative components
 
   HV_FUNCTION void begin(const VolumeView& volume, const IndexRay& ray)
   {
@@ -119,12 +121,14 @@ struct MajorantIterator
     this->direction = ray.direction;
     this->tEnd = ray.tMax;
     const float cellSize = static_cast<float>(volume.cellSize);
+    this->octant = 0;
     for (int axis = 0; axis < 3; ++axis)
     {
       const float d = ray.direction[axis];
       this->step[axis] = d > 0.0f ? 1 : (d < 0.0f ? -1 : 0);
       this->inverseDirection[axis] = d != 0.0f ? 1.0f / d : 0.0f;
       this->tDelta[axis] = d != 0.0f ? cellSize * glm::abs(this->inverseDirection[axis]) : Infinity;
+      this->octant |= d < 0.0f ? (1 << axis) : 0;
     }
     this->startAt(volume, ray.tMin);
   }
@@ -165,13 +169,16 @@ struct MajorantIterator
     return true;
   }
 
-  HV_FUNCTION void advance(const VolumeView& volume)
+  // `majorant` is the current cell's, as segment() returned it: only empty cells can start a
+  // leap, so the distance grid is not read for the others.
+  HV_FUNCTION void advance(const VolumeView& volume, float majorant)
   {
-    const int distance =
-      volume.emptyDistance != nullptr ? volume.emptyDistanceOfCell(this->cell) : 0;
+    const int distance = volume.emptyDistance != nullptr && majorant <= 0.0f
+      ? volume.emptyDistanceOfCell(this->cell, this->octant)
+      : 0;
     if (distance > 1)
     {
-      // Leap to where the ray leaves the empty cube of cells within distance - 1.
+      // Leap to where the ray leaves the empty box of distance - 1 cells ahead.
       const float cellSize = static_cast<float>(volume.cellSize);
       float leap = this->tEnd;
       for (int axis = 0; axis < 3; ++axis)
@@ -248,7 +255,7 @@ HV_FUNCTION bool sampleFreeFlight(const VolumeView& volume, const IndexRay& ray,
         }
       }
     }
-    it.advance(volume);
+    it.advance(volume, majorant);
   }
   return false;
 }
@@ -284,6 +291,10 @@ HV_FUNCTION float estimateTransmittance(const VolumeView& volume, const IndexRay
         }
         const float sigma = volume.sigmaT(ray.origin + t * ray.direction);
         transmittance *= 1.0f - glm::min(sigma / majorant, 1.0f);
+        if (transmittance <= 0.0f)
+        {
+          return 0.0f; // a collision at the majorant itself: nothing can get through
+        }
         if (transmittance < 0.1f)
         {
           if (rng.nextFloat() < 0.5f)
@@ -294,7 +305,7 @@ HV_FUNCTION float estimateTransmittance(const VolumeView& volume, const IndexRay
         }
       }
     }
-    it.advance(volume);
+    it.advance(volume, majorant);
   }
   return transmittance;
 }

@@ -71,8 +71,10 @@ struct VolumeView
   const float* majorant = nullptr;
   glm::ivec3 majorantDims = glm::ivec3(0);
   int cellSize = 8;
-  // Per cell: Chebyshev distance (in cells, capped at 255) to the nearest cell with a
-  // positive majorant; 0 for non-empty cells. Optional.
+  // Per octant of ray directions (index: sign bits of x, y, z, set for negative) and cell:
+  // the Chebyshev distance (in cells, capped at 255) to the nearest cell with a positive
+  // majorant in the orthant ahead; 0 for non-empty cells. Eight maps of majorantDims cells
+  // each, one after the other. Optional.
   const std::uint8_t* emptyDistance = nullptr;
   // Index-space bounds of the cells with a positive majorant (low > high when all are empty):
   // rays are clipped to it, since outside it nothing can scatter or absorb. The defaults
@@ -216,11 +218,12 @@ struct VolumeView
     return this->gradientToWorld * indexGradient;
   }
 
-  HV_FUNCTION int emptyDistanceOfCell(const glm::ivec3& c) const
+  HV_FUNCTION int emptyDistanceOfCell(const glm::ivec3& c, int octant) const
   {
-    return this
-      ->emptyDistance[(static_cast<long>(c.z) * this->majorantDims.y + c.y) * this->majorantDims.x +
-        c.x];
+    const long cells =
+      static_cast<long>(this->majorantDims.x) * this->majorantDims.y * this->majorantDims.z;
+    return this->emptyDistance[octant * cells +
+      (static_cast<long>(c.z) * this->majorantDims.y + c.y) * this->majorantDims.x + c.x];
   }
 
   HV_FUNCTION float majorantOfCell(const glm::ivec3& c) const
