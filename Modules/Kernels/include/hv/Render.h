@@ -107,36 +107,29 @@ HV_FUNCTION float transmittanceTowards(const SceneView& scene, const glm::vec3& 
   return estimateTransmittance(scene.volume, ray, rng);
 }
 
-// Survival probability of a secondary ray that can only multiply a known contribution by a
+// Survival probability of a secondary ray that can only multiply a known contribution c by a
 // visibility or transmittance estimate: shadow rays of next-event estimation, and the last
 // phase/BRDF continuation, which can add nothing but the MIS-weighted environment it reaches.
 // Tracing it with probability q and dividing by q keeps the estimator unbiased (Arvo and Kirk
-// 1990). q = min(1, lum(c) / (k lum(throughput L_mean))): rays that would add less than the
-// fraction k of what the mean environment gives are traced only sometimes, which costs at
-// most (k lum(throughput L_mean))^2 / 4 of variance per ray, since a Bernoulli estimate of
-// value c / q has variance c (c / q - c) <= (c / q)^2 / 4. Under a peaked environment most
-// continuations point at dim sky, where MIS weighs them near one but they carry little.
-HV_FUNCTION float secondaryRaySurvival(
-  const SceneView& scene, const glm::vec3& throughput, const glm::vec3& contribution)
+// 1990). q = min(1, r / k) with r = lum(c) / lum(throughput L_mean), the contribution relative
+// to what the mean environment would give: rays that would add less than the fraction k of it
+// are traced only sometimes, which costs at most (k lum(throughput L_mean))^2 / 4 of variance
+// per ray, since a Bernoulli estimate of value c / q has variance c (c / q - c) <= (c / q)^2 / 4.
+// Under a peaked environment most continuations point at dim sky, where MIS weighs them near
+// one but they carry little.
+//
+// For environment rays r needs no texel: importance sampling makes the light-sampling density
+// proportional to the luminance of the map's block, so L ~ 4 pi pdf L_mean and
+// r = 4 pi pdf x (the ray's MIS weight over its sampling density). Only q depends on that
+// estimate, and it is positive wherever the radiance is, so the image stays unbiased while
+// rays the roulette ends never read the megabyte-sized map.
+HV_FUNCTION float secondaryRaySurvival(const SceneView& scene, float relativeContribution)
 {
-  const float level =
-    scene.secondaryRayRoulette * luminance(throughput * scene.environment.averageRadiance());
-  if (!(level > 0.0f))
+  if (!(scene.secondaryRayRoulette > 0.0f))
   {
     return 1.0f;
   }
-  return glm::min(luminance(contribution) / level, 1.0f);
-}
-
-// What the roulette assumes the environment sends from a direction sampled with solid-angle
-// density lightPdf (or, for a phase/BRDF sample, where light sampling has that density):
-// importance sampling makes the density proportional to the luminance of the map's block
-// there, so L ~ 4 pi pdf L_mean. Only the survival probability depends on it; the estimate
-// stays unbiased because it is positive wherever the radiance is. Reading the texel instead
-// would cost a cache miss for every ray, also for those the roulette ends.
-HV_FUNCTION glm::vec3 expectedEnvironment(const SceneView& scene, float lightPdf)
-{
-  return (4.0f * Pi * lightPdf) * scene.environment.averageRadiance();
+  return glm::min(relativeContribution / scene.secondaryRayRoulette, 1.0f);
 }
 
 HV_FUNCTION bool survivesRoulette(float survival, Pcg32& rng)
@@ -224,7 +217,9 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
         // Irradiance pi * I so that a white Lambertian surface facing a light of intensity I
         // has radiance I, as under VTK's Phong lighting.
         const glm::vec3 unoccluded = throughput * density * Pi * intensity;
-        const float survival = secondaryRaySurvival(scene, throughput, unoccluded);
+        const float meanLevel = luminance(throughput * scene.environment.averageRadiance());
+        const float survival =
+          meanLevel > 0.0f ? secondaryRaySurvival(scene, luminance(unoccluded) / meanLevel) : 1.0f;
         if (survivesRoulette(survival, rng))
         {
           radiance +=
@@ -232,10 +227,8 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
         }
       }
     }
-    // ... and the environment, importance-sampled, MIS-weighted against the phase/BRDF.
-    // The roulette estimates the radiance from the sampling density (expectedEnvironment), so
-    // the texel is only read, prefetched while the shadow ray is traced, for rays that get
-    // through.
+    // ... and the environment, importance-sampled, MIS-weighted against the phase/BRDF. The
+    // texel is only read, prefetched while the shadow ray is traced, for rays that get through.
     {
       float lightPdf;
       glm::vec2 uv;
@@ -249,8 +242,7 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
       if (lightPdf > 0.0f && density > 0.0f)
       {
         const float weight = powerHeuristic(lightPdf, density) * density / lightPdf;
-        const float survival = secondaryRaySurvival(
-          scene, throughput, throughput * weight * expectedEnvironment(scene, lightPdf));
+        const float survival = secondaryRaySurvival(scene, 4.0f * Pi * lightPdf * weight);
         if (survivesRoulette(survival, rng))
         {
           const float transmittance = transmittanceTowards(scene, position, toLight, Infinity, rng);
@@ -289,8 +281,7 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
       scene.environment.prefetch(uv);
       const float lightPdf = scene.environment.pdfAt(uv);
       const float weight = powerHeuristic(previousDirectionalPdf, lightPdf);
-      const float survival = secondaryRaySurvival(
-        scene, throughput, throughput * weight * expectedEnvironment(scene, lightPdf));
+      const float survival = secondaryRaySurvival(scene, 4.0f * Pi * lightPdf * weight);
       IndexRay escape;
       float tUnused;
       if (weight > 0.0f && survivesRoulette(survival, rng) &&
