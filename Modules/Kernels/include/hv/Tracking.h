@@ -113,7 +113,13 @@ struct MajorantIterator
   glm::vec3 inverseDirection;
   float t;
   float tEnd;
+  float inverseCellSize;
   int octant; // sign bits of the direction, set for negative components
+  // The current cell's offset in the majorant grid and what a step along each axis adds to
+  // it, so a step reads the grid without recomputing the offset from the cell.
+  long cellIndex;
+  long indexStep[3];
+  const std::uint8_t* emptyDistance; // the distance map of the ray's octant, or null
 
   HV_FUNCTION void begin(const VolumeView& volume, const IndexRay& ray)
   {
@@ -121,15 +127,22 @@ struct MajorantIterator
     this->direction = ray.direction;
     this->tEnd = ray.tMax;
     const float cellSize = static_cast<float>(volume.cellSize);
+    this->inverseCellSize = 1.0f / cellSize;
     this->octant = 0;
+    const long strides[3] = { 1, volume.majorantDims.x,
+      static_cast<long>(volume.majorantDims.x) * volume.majorantDims.y };
     for (int axis = 0; axis < 3; ++axis)
     {
       const float d = ray.direction[axis];
       this->step[axis] = d > 0.0f ? 1 : (d < 0.0f ? -1 : 0);
+      this->indexStep[axis] = this->step[axis] * strides[axis];
       this->inverseDirection[axis] = d != 0.0f ? 1.0f / d : 0.0f;
       this->tDelta[axis] = d != 0.0f ? cellSize * glm::abs(this->inverseDirection[axis]) : Infinity;
       this->octant |= d < 0.0f ? (1 << axis) : 0;
     }
+    this->emptyDistance = volume.emptyDistance != nullptr
+      ? volume.emptyDistance + this->octant * strides[2] * volume.majorantDims.z
+      : nullptr;
     this->startAt(volume, ray.tMin);
   }
 
@@ -142,8 +155,8 @@ struct MajorantIterator
     const glm::vec3 p = this->origin + tStart * this->direction;
     for (int axis = 0; axis < 3; ++axis)
     {
-      const int c =
-        glm::clamp(static_cast<int>(glm::floor(p[axis] / cellSize)), 0, volume.majorantDims[axis] - 1);
+      const int c = glm::clamp(static_cast<int>(glm::floor(p[axis] * this->inverseCellSize)), 0,
+        volume.majorantDims[axis] - 1);
       this->cell[axis] = c;
       if (this->step[axis] != 0)
       {
@@ -155,6 +168,10 @@ struct MajorantIterator
         this->tNext[axis] = Infinity;
       }
     }
+    this->cellIndex =
+      (static_cast<long>(this->cell.z) * volume.majorantDims.y + this->cell.y) *
+        volume.majorantDims.x +
+      this->cell.x;
   }
 
   // The current segment [t, exit) and its majorant; false once the ray has left the grid.
@@ -165,7 +182,7 @@ struct MajorantIterator
       return false;
     }
     exit = glm::min(glm::min(this->tNext.x, this->tNext.y), glm::min(this->tNext.z, this->tEnd));
-    majorant = volume.majorantOfCell(this->cell);
+    majorant = volume.majorant[this->cellIndex];
     return true;
   }
 
@@ -173,9 +190,8 @@ struct MajorantIterator
   // leap, so the distance grid is not read for the others.
   HV_FUNCTION void advance(const VolumeView& volume, float majorant)
   {
-    const int distance = volume.emptyDistance != nullptr && majorant <= 0.0f
-      ? volume.emptyDistanceOfCell(this->cell, this->octant)
-      : 0;
+    const int distance =
+      this->emptyDistance != nullptr && majorant <= 0.0f ? this->emptyDistance[this->cellIndex] : 0;
     if (distance > 1)
     {
       // Leap to where the ray leaves the empty box of distance - 1 cells ahead.
@@ -214,6 +230,7 @@ struct MajorantIterator
     }
     this->t = this->tNext[axis];
     this->cell[axis] += this->step[axis];
+    this->cellIndex += this->indexStep[axis];
     this->tNext[axis] += this->tDelta[axis];
     if (this->cell[axis] < 0 || this->cell[axis] >= volume.majorantDims[axis])
     {
@@ -237,10 +254,12 @@ HV_FUNCTION bool sampleFreeFlight(const VolumeView& volume, const IndexRay& ray,
   {
     if (majorant > 0.0f)
     {
+      // One division per segment: the free paths within it are sampled by multiplication.
+      const float meanFreePath = 1.0f / majorant;
       float t = it.t;
       for (;;)
       {
-        t -= glm::log(1.0f - rng.nextFloat()) / majorant;
+        t -= glm::log(1.0f - rng.nextFloat()) * meanFreePath;
         if (t >= exit)
         {
           break;
@@ -281,16 +300,18 @@ HV_FUNCTION float estimateTransmittance(const VolumeView& volume, const IndexRay
   {
     if (majorant > 0.0f)
     {
+      // One division per segment: the free paths within it are sampled by multiplication.
+      const float meanFreePath = 1.0f / majorant;
       float t = it.t;
       for (;;)
       {
-        t -= glm::log(1.0f - rng.nextFloat()) / majorant;
+        t -= glm::log(1.0f - rng.nextFloat()) * meanFreePath;
         if (t >= exit)
         {
           break;
         }
         const float sigma = volume.sigmaT(ray.origin + t * ray.direction);
-        transmittance *= 1.0f - glm::min(sigma / majorant, 1.0f);
+        transmittance *= 1.0f - glm::min(sigma * meanFreePath, 1.0f);
         if (transmittance <= 0.0f)
         {
           return 0.0f; // a collision at the majorant itself: nothing can get through
