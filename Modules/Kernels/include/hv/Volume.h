@@ -175,9 +175,9 @@ struct VolumeView
   }
 #endif
 
-  // Trilinear interpolation of the 16-bit scalars, in quanta. Free-flight sampling spends most
-  // of its time here, in a chain of dependent loads and arithmetic per tentative collision,
-  // so the host path shortens it: the x-neighbours of each voxel pair are adjacent in memory,
+  // Trilinear interpolation of the 16-bit scalars, in quanta. Every tentative collision of
+  // delta and ratio tracking waits on it (a chain of dependent loads and arithmetic), so the
+  // host path shortens it: the x-neighbours of each voxel pair are adjacent in memory,
   // so four 32-bit loads fetch all eight corners, and one vector lerp along x serves all four
   // pairs. The interpolation order (x, then y, then z) is the scalar form's.
   HV_FUNCTION float scalarQuantaAt(const glm::vec3& p) const
