@@ -247,6 +247,22 @@ TEST(Protocol, FrameContainerRoundTripAndDamage)
   EXPECT_FALSE(DecodeFrameMessage(longHeader, &decoded, eyes, &reason));
   EXPECT_NE(reason.find("header length"), std::string::npos) << reason;
   EXPECT_FALSE(DecodeFrameMessage("HVF2" + message.substr(4), &decoded, eyes, &reason));
+
+  // An image width beyond int is refused, not converted (undefined behaviour).
+  const std::size_t headerLength = static_cast<unsigned char>(message[4]) |
+    static_cast<unsigned char>(message[5]) << 8 | static_cast<unsigned char>(message[6]) << 16;
+  std::string headerText = message.substr(8, headerLength);
+  const std::size_t width = headerText.find("\"width\":64");
+  ASSERT_NE(width, std::string::npos) << headerText;
+  headerText.replace(width, 10, "\"width\":1e30");
+  std::string hugeWidth = "HVF1";
+  for (int byte = 0; byte < 4; ++byte)
+  {
+    hugeWidth.push_back(static_cast<char>((headerText.size() >> (8 * byte)) & 0xffu));
+  }
+  hugeWidth += headerText + message.substr(8 + headerLength);
+  EXPECT_FALSE(DecodeFrameMessage(hugeWidth, &decoded, eyes, &reason));
+  EXPECT_NE(reason.find("'width'"), std::string::npos) << reason;
 }
 
 TEST(Protocol, ServerMessagesParseBackInTheClient)
@@ -271,4 +287,32 @@ TEST(Protocol, ServerMessagesParseBackInTheClient)
   // Client text quoted in an error reason stays valid JSON even when it is not UTF-8.
   ASSERT_TRUE(ParseServerTextMessage(SerializeError("unknown message type '\xff\xfe'"), &message, &reason));
   EXPECT_EQ(message.type, "error");
+}
+
+// Integer fields beyond their C++ type are refused with a reason, not converted (that
+// conversion is undefined behaviour; the fuzzer found a welcome with eyeHeight = 3.2e83).
+TEST(Protocol, ServerMessagesWithOutOfRangeCountsAreRefused)
+{
+  ServerTextMessage message;
+  std::string reason;
+  EXPECT_FALSE(ParseServerTextMessage(
+    R"({"type":"welcome","role":"spectator","codec":"jpeg","eyeWidth":64,"eyeHeight":3.2e83})",
+    &message, &reason));
+  EXPECT_NE(reason.find("eyeHeight"), std::string::npos) << reason;
+  EXPECT_FALSE(ParseServerTextMessage(R"({"type":"welcome","eyeWidth":-1,"eyeHeight":4})",
+    &message, &reason));
+  EXPECT_NE(reason.find("eyeWidth"), std::string::npos) << reason;
+  EXPECT_FALSE(ParseServerTextMessage(R"({"type":"stats","frameId":1e30,"clients":1})",
+    &message, &reason));
+  EXPECT_NE(reason.find("frameId"), std::string::npos) << reason;
+  EXPECT_FALSE(ParseServerTextMessage(R"({"type":"stats","frameId":3,"clients":4294967296})",
+    &message, &reason));
+  EXPECT_NE(reason.find("clients"), std::string::npos) << reason;
+  // The largest values that fit are kept.
+  ASSERT_TRUE(ParseServerTextMessage(
+    R"({"type":"stats","frameId":18446744073709549568,"clients":2147483647,"droppedFrames":0})",
+    &message, &reason))
+    << reason;
+  EXPECT_EQ(message.stats.clients, 2147483647);
+  EXPECT_EQ(message.stats.frameId, 18446744073709549568ull);
 }

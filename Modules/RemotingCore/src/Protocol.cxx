@@ -606,6 +606,35 @@ bool ParseServerTextMessage(std::string_view text, ServerTextMessage* message, s
     const auto it = document.find(name);
     return it != document.end() && it->is_number() ? it->get<double>() : fallback;
   };
+  // Counts and sizes arrive as JSON numbers. Converting one outside the C++ type's range is
+  // undefined behaviour (the fuzzer found eyeHeight = 3.2e83), so such a message is refused.
+  struct IntegerRange
+  {
+    double limit; // exclusive
+    const char* maximum;
+  };
+  constexpr IntegerRange intRange = { 2147483648.0, "2^31 - 1" };
+  constexpr IntegerRange counterRange = { 18446744073709551616.0, "2^64 - 1" };
+  std::string outOfRange;
+  const auto count = [&](const char* name, const IntegerRange& range) {
+    const double value = number(name);
+    if (value >= 0.0 && value < range.limit)
+    {
+      return value;
+    }
+    if (outOfRange.empty())
+    {
+      outOfRange = message->type + ": '" + name + "' must be from 0 to " + range.maximum;
+    }
+    return 0.0;
+  };
+  const auto refuseOutOfRange = [&]() {
+    if (reason)
+    {
+      *reason = outOfRange;
+    }
+    return false;
+  };
   const auto string = [&](const char* name) {
     const auto it = document.find(name);
     return it != document.end() && it->is_string() ? it->get<std::string>() : std::string();
@@ -631,8 +660,12 @@ bool ParseServerTextMessage(std::string_view text, ServerTextMessage* message, s
     message->codec = string("codec") == "h264" ? Codec::H264 : Codec::Jpeg;
     WelcomeInfo& info = message->welcome;
     info.server = string("server");
-    info.eyeWidth = static_cast<int>(number("eyeWidth"));
-    info.eyeHeight = static_cast<int>(number("eyeHeight"));
+    info.eyeWidth = static_cast<int>(count("eyeWidth", intRange));
+    info.eyeHeight = static_cast<int>(count("eyeHeight", intRange));
+    if (!outOfRange.empty())
+    {
+      return refuseOutOfRange();
+    }
     info.illuminationModels = strings("illuminationModels");
     info.illuminationModel = string("illuminationModel");
     info.presets = strings("presets");
@@ -644,15 +677,19 @@ bool ParseServerTextMessage(std::string_view text, ServerTextMessage* message, s
   if (message->type == "stats")
   {
     ServerStatistics& s = message->stats;
-    s.frameId = static_cast<std::uint64_t>(number("frameId"));
+    s.frameId = static_cast<std::uint64_t>(count("frameId", counterRange));
     s.framesPerSecond = number("fps");
     s.renderMs = number("renderMs");
     s.denoiseMs = number("denoiseMs");
     s.encodeMs = number("encodeMs");
     s.sendMs = number("sendMs");
     s.poseToDisplayMs = number("poseToDisplayMs");
-    s.clients = static_cast<int>(number("clients"));
-    s.droppedFrames = static_cast<std::uint64_t>(number("droppedFrames"));
+    s.clients = static_cast<int>(count("clients", intRange));
+    s.droppedFrames = static_cast<std::uint64_t>(count("droppedFrames", counterRange));
+    if (!outOfRange.empty())
+    {
+      return refuseOutOfRange();
+    }
   }
   else if (message->type == "error")
   {
@@ -741,6 +778,11 @@ bool DecodeFrameMessage(
     !fields.Numbers("volumeCenter", &header->volumeCenter))
   {
     return false;
+  }
+  // An image size beyond int would make the conversion undefined behaviour.
+  if (!(width >= 0.0 && width < 2147483648.0) || !(height >= 0.0 && height < 2147483648.0))
+  {
+    return fields.Fail("'width' and 'height' must be from 0 to 2^31 - 1");
   }
   header->codec = codec == "h264" ? Codec::H264 : Codec::Jpeg;
   header->width = static_cast<int>(width);
