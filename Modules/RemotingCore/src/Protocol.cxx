@@ -19,6 +19,22 @@ using nlohmann::json;
 
 namespace
 {
+// Integer fields sent as JSON numbers: converting a value outside the C++ type's range is
+// undefined behaviour (the fuzzer found a welcome with eyeHeight = 3.2e83), so parsers check
+// it first.
+struct CountRange
+{
+  double limit; // exclusive
+  const char* maximum;
+};
+constexpr CountRange IntRange = { 2147483648.0, "2^31 - 1" };
+constexpr CountRange CounterRange = { 18446744073709551616.0, "2^64 - 1" };
+
+bool FitsCount(double value, const CountRange& range)
+{
+  return value >= 0.0 && value < range.limit;
+}
+
 // The parser must never throw (it runs on the network thread and under libFuzzer), so every
 // access checks the type first and nlohmann's throwing accessors are not used.
 class FieldReader
@@ -606,19 +622,12 @@ bool ParseServerTextMessage(std::string_view text, ServerTextMessage* message, s
     const auto it = document.find(name);
     return it != document.end() && it->is_number() ? it->get<double>() : fallback;
   };
-  // Counts and sizes arrive as JSON numbers. Converting one outside the C++ type's range is
-  // undefined behaviour (the fuzzer found eyeHeight = 3.2e83), so such a message is refused.
-  struct IntegerRange
-  {
-    double limit; // exclusive
-    const char* maximum;
-  };
-  constexpr IntegerRange intRange = { 2147483648.0, "2^31 - 1" };
-  constexpr IntegerRange counterRange = { 18446744073709551616.0, "2^64 - 1" };
+  // Counts and sizes arrive as JSON numbers; one beyond its C++ type is refused (see
+  // FitsCount). The first such field names the reason.
   std::string outOfRange;
-  const auto count = [&](const char* name, const IntegerRange& range) {
+  const auto count = [&](const char* name, const CountRange& range) {
     const double value = number(name);
-    if (value >= 0.0 && value < range.limit)
+    if (FitsCount(value, range))
     {
       return value;
     }
@@ -627,13 +636,6 @@ bool ParseServerTextMessage(std::string_view text, ServerTextMessage* message, s
       outOfRange = message->type + ": '" + name + "' must be from 0 to " + range.maximum;
     }
     return 0.0;
-  };
-  const auto refuseOutOfRange = [&]() {
-    if (reason)
-    {
-      *reason = outOfRange;
-    }
-    return false;
   };
   const auto string = [&](const char* name) {
     const auto it = document.find(name);
@@ -660,11 +662,12 @@ bool ParseServerTextMessage(std::string_view text, ServerTextMessage* message, s
     message->codec = string("codec") == "h264" ? Codec::H264 : Codec::Jpeg;
     WelcomeInfo& info = message->welcome;
     info.server = string("server");
-    info.eyeWidth = static_cast<int>(count("eyeWidth", intRange));
-    info.eyeHeight = static_cast<int>(count("eyeHeight", intRange));
+    info.eyeWidth = static_cast<int>(count("eyeWidth", IntRange));
+    info.eyeHeight = static_cast<int>(count("eyeHeight", IntRange));
     if (!outOfRange.empty())
     {
-      return refuseOutOfRange();
+      *reason = outOfRange;
+      return false;
     }
     info.illuminationModels = strings("illuminationModels");
     info.illuminationModel = string("illuminationModel");
@@ -677,18 +680,19 @@ bool ParseServerTextMessage(std::string_view text, ServerTextMessage* message, s
   if (message->type == "stats")
   {
     ServerStatistics& s = message->stats;
-    s.frameId = static_cast<std::uint64_t>(count("frameId", counterRange));
+    s.frameId = static_cast<std::uint64_t>(count("frameId", CounterRange));
     s.framesPerSecond = number("fps");
     s.renderMs = number("renderMs");
     s.denoiseMs = number("denoiseMs");
     s.encodeMs = number("encodeMs");
     s.sendMs = number("sendMs");
     s.poseToDisplayMs = number("poseToDisplayMs");
-    s.clients = static_cast<int>(count("clients", intRange));
-    s.droppedFrames = static_cast<std::uint64_t>(count("droppedFrames", counterRange));
+    s.clients = static_cast<int>(count("clients", IntRange));
+    s.droppedFrames = static_cast<std::uint64_t>(count("droppedFrames", CounterRange));
     if (!outOfRange.empty())
     {
-      return refuseOutOfRange();
+      *reason = outOfRange;
+      return false;
     }
   }
   else if (message->type == "error")
@@ -779,10 +783,9 @@ bool DecodeFrameMessage(
   {
     return false;
   }
-  // An image size beyond int would make the conversion undefined behaviour.
-  if (!(width >= 0.0 && width < 2147483648.0) || !(height >= 0.0 && height < 2147483648.0))
+  if (!FitsCount(width, IntRange) || !FitsCount(height, IntRange))
   {
-    return fields.Fail("'width' and 'height' must be from 0 to 2^31 - 1");
+    return fields.Fail(std::string("'width' and 'height' must be from 0 to ") + IntRange.maximum);
   }
   header->codec = codec == "h264" ? Codec::H264 : Codec::Jpeg;
   header->width = static_cast<int>(width);

@@ -114,7 +114,6 @@ struct MajorantIterator
   float t;
   float tEnd;
   float inverseCellSize;
-  int octant; // sign bits of the direction, set for negative components
   // The current cell's offset in the majorant grid and what a step along each axis adds to
   // it, so a step reads the grid without recomputing the offset from the cell.
   long cellIndex;
@@ -128,7 +127,7 @@ struct MajorantIterator
     this->tEnd = ray.tMax;
     const float cellSize = static_cast<float>(volume.cellSize);
     this->inverseCellSize = 1.0f / cellSize;
-    this->octant = 0;
+    int octant = 0; // sign bits of the direction, set for negative components
     const long strides[3] = { 1, volume.majorantDims.x,
       static_cast<long>(volume.majorantDims.x) * volume.majorantDims.y };
     for (int axis = 0; axis < 3; ++axis)
@@ -138,10 +137,10 @@ struct MajorantIterator
       this->indexStep[axis] = this->step[axis] * strides[axis];
       this->inverseDirection[axis] = d != 0.0f ? 1.0f / d : 0.0f;
       this->tDelta[axis] = d != 0.0f ? cellSize * glm::abs(this->inverseDirection[axis]) : Infinity;
-      this->octant |= d < 0.0f ? (1 << axis) : 0;
+      octant |= d < 0.0f ? (1 << axis) : 0;
     }
     this->emptyDistance = volume.emptyDistance != nullptr
-      ? volume.emptyDistance + this->octant * strides[2] * volume.majorantDims.z
+      ? volume.emptyDistance + octant * volume.cellCount()
       : nullptr;
     this->startAt(volume, ray.tMin);
   }
@@ -168,10 +167,7 @@ struct MajorantIterator
         this->tNext[axis] = Infinity;
       }
     }
-    this->cellIndex =
-      (static_cast<long>(this->cell.z) * volume.majorantDims.y + this->cell.y) *
-        volume.majorantDims.x +
-      this->cell.x;
+    this->cellIndex = volume.cellOffset(this->cell);
   }
 
   // The current segment [t, exit) and its majorant; false once the ray has left the grid.

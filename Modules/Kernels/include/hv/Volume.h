@@ -269,19 +269,25 @@ struct VolumeView
     return this->gradientToWorld * indexGradient;
   }
 
+  // Offset of a macrocell in the majorant grid, and in each octant's distance map.
+  HV_FUNCTION long cellOffset(const glm::ivec3& c) const
+  {
+    return (static_cast<long>(c.z) * this->majorantDims.y + c.y) * this->majorantDims.x + c.x;
+  }
+
+  HV_FUNCTION long cellCount() const
+  {
+    return static_cast<long>(this->majorantDims.x) * this->majorantDims.y * this->majorantDims.z;
+  }
+
   HV_FUNCTION int emptyDistanceOfCell(const glm::ivec3& c, int octant) const
   {
-    const long cells =
-      static_cast<long>(this->majorantDims.x) * this->majorantDims.y * this->majorantDims.z;
-    return this->emptyDistance[octant * cells +
-      (static_cast<long>(c.z) * this->majorantDims.y + c.y) * this->majorantDims.x + c.x];
+    return this->emptyDistance[octant * this->cellCount() + this->cellOffset(c)];
   }
 
   HV_FUNCTION float majorantOfCell(const glm::ivec3& c) const
   {
-    return this
-      ->majorant[(static_cast<long>(c.z) * this->majorantDims.y + c.y) * this->majorantDims.x +
-        c.x];
+    return this->majorant[this->cellOffset(c)];
   }
 };
 }
