@@ -101,6 +101,24 @@ double vtkStereoSpatioTemporalDenoiser::GetLastFrameMilliseconds()
   return this->Internals->LastMilliseconds;
 }
 
+double vtkStereoSpatioTemporalDenoiser::GetLastStageMilliseconds(int stage)
+{
+  if (stage < 0 || stage >= NumberOfStages)
+  {
+    return 0.0;
+  }
+  return this->Internals->Denoiser.statistics().milliseconds[stage];
+}
+
+double vtkStereoSpatioTemporalDenoiser::GetLastSurfaceFraction(int eye)
+{
+  if (eye < 0 || eye > 1)
+  {
+    return 0.0;
+  }
+  return this->Internals->Denoiser.statistics().surfaceFraction[eye];
+}
+
 int vtkStereoSpatioTemporalDenoiser::FillInputPortInformation(int port, vtkInformation* info)
 {
   if (port == 2)

@@ -209,6 +209,30 @@ public:
    */
   double GetLastFrameMilliseconds();
 
+  /**
+   * Stages of a frame, in the order they run, for GetLastStageMilliseconds().
+   */
+  enum Stage
+  {
+    SurfaceStage = 0,  // surfaces, demodulation, silhouettes, depth spread
+    CrossViewStage,    // D1's corresponding pixels of Eq. 2
+    TemporalStage,     // D1's blending with the reprojected history
+    WaveletStage,      // D1's a-trous filter and re-modulation
+    StereoBlendStage,  // D2
+    NumberOfStages
+  };
+
+  /**
+   * Milliseconds one stage of the last frame took; 0 for an unknown stage.
+   */
+  double GetLastStageMilliseconds(int stage);
+
+  /**
+   * Fraction of an eye's pixels (0 left or mono, 1 right) that saw the volume in the last
+   * frame. Only these pixels are filtered; the rest pass through.
+   */
+  double GetLastSurfaceFraction(int eye);
+
 protected:
   vtkStereoSpatioTemporalDenoiser();
   ~vtkStereoSpatioTemporalDenoiser() override;

@@ -129,18 +129,22 @@ int main(int argc, char* argv[])
 
   struct Variant
   {
-    const char* Name;
+    const char* Name = "";
     vtkNew<vtkStereoSpatioTemporalDenoiser> Denoiser;
     std::vector<double> Milliseconds;
+    std::vector<double> StageMilliseconds[vtkStereoSpatioTemporalDenoiser::NumberOfStages];
   };
-  Variant variants[3] = { { "full (D1 + D2)", {}, {} }, { "D1 (no D2)", {}, {} },
-    { "spatial only", {}, {} } };
+  Variant variants[3];
+  variants[0].Name = "full (D1 + D2)";
+  variants[1].Name = "D1 (no D2)";
+  variants[2].Name = "spatial only";
   variants[1].Denoiser->StereoBlendOff();
   variants[2].Denoiser->CrossViewSamplesOff();
   variants[2].Denoiser->TemporalAccumulationOff();
   variants[2].Denoiser->StereoBlendOff();
 
   std::vector<double> renderMs;
+  double surfaceFraction = 0.0;
   const double aspect = static_cast<double>(width) / height;
   std::cerr << "rendering and denoising " << frames + 2 << " stereo frames at " << width << "x"
             << height << " per eye";
@@ -167,15 +171,21 @@ int main(int argc, char* argv[])
       if (frame >= 2)
       {
         v.Milliseconds.push_back(v.Denoiser->GetLastFrameMilliseconds());
+        for (int stage = 0; stage < vtkStereoSpatioTemporalDenoiser::NumberOfStages; ++stage)
+        {
+          v.StageMilliseconds[stage].push_back(v.Denoiser->GetLastStageMilliseconds(stage));
+        }
+        surfaceFraction = 0.5 *
+          (v.Denoiser->GetLastSurfaceFraction(0) + v.Denoiser->GetLastSurfaceFraction(1));
       }
     }
     if (frame >= 2)
     {
       renderMs.push_back(ms);
     }
-    std::cerr << ".";
+    std::cerr << "." << std::flush;
   }
-  std::cerr << "\n";
+  std::cerr << "\n" << std::flush;
 
   int dims[3];
   volumeData->GetDimensions(dims);
@@ -192,6 +202,15 @@ int main(int argc, char* argv[])
     std::printf("%-44s %12.1f %12.1f\n",
       (std::string("vtkStereoSpatioTemporalDenoiser, ") + v.Name).c_str(), Median(v.Milliseconds),
       *std::min_element(v.Milliseconds.begin(), v.Milliseconds.end()));
+  }
+  static const char* stageNames[vtkStereoSpatioTemporalDenoiser::NumberOfStages] = {
+    "surfaces", "D1 cross-view samples", "D1 temporal blending", "D1 wavelet filter", "D2"
+  };
+  std::printf("\nfull denoiser by stage (median ms); %.1f%% of the pixels see the volume\n",
+    100.0 * surfaceFraction);
+  for (int stage = 0; stage < vtkStereoSpatioTemporalDenoiser::NumberOfStages; ++stage)
+  {
+    std::printf("  %-42s %12.1f\n", stageNames[stage], Median(variants[0].StageMilliseconds[stage]));
   }
   std::printf("\nThe full denoiser costs %.1f%% of the frame it denoises.\n",
     100.0 * Median(variants[0].Milliseconds) / Median(renderMs));

@@ -10,6 +10,7 @@
 #include "hv/Platform.h"
 
 #include <cstdint>
+#include <cstring>
 
 namespace hv
 {
@@ -171,25 +172,73 @@ HV_FUNCTION glm::vec4 remodulate(const glm::vec4& signal, const glm::vec3& albed
     albedo.z > floor ? signal.z * albedo.z : signal.z, signal.w);
 }
 
+// e^-x for x >= 0 (negative x count as 0), to a relative error below 3e-7. Written out rather
+// than calling expf because the wavelet filter evaluates it nine times per pixel and level,
+// and only a branch-free inline form lets the compiler vectorise that loop: glibc's vector
+// expf (libmvec) is used only under -ffast-math, which would also reorder the filter's sums.
+// e^-x = 2^-t with t = x log2(e) = n + f, n the nearest integer, |f| <= 1/2; 2^-n is built in
+// the exponent bits and 2^-f = e^y, y = -f ln 2, by its Taylor series to y^6 (the remainder
+// is below |y|^7 / 7! < 2e-7 for |y| <= ln(2)/2). Results below 2^-125 are not flushed to 0.
+HV_FUNCTION float exponentialOfNegative(float x)
+{
+#if defined(__CUDA_ARCH__)
+  return __expf(-glm::max(x, 0.0f));
+#else
+  const float t = glm::min(glm::max(x, 0.0f) * 1.44269504f, 125.0f);
+  const int n = static_cast<int>(t + 0.5f); // t >= 0: truncation rounds to nearest
+  const float y = (static_cast<float>(n) - t) * 0.693147181f;
+  const float series = 1.0f +
+    y * (1.0f + y * (0.5f + y * (1.0f / 6.0f + y * (1.0f / 24.0f + y * (1.0f / 120.0f +
+      y * (1.0f / 720.0f))))));
+  const std::int32_t bits = (127 - n) << 23; // the float 2^-n
+  float power;
+  std::memcpy(&power, &bits, sizeof(power));
+  return series * power;
+#endif
+}
+
 // Edge-stopping weight of one tap of the a-trous wavelet filter (Dammertz et al. 2010, with
 // SVGF's variance-guided luminance term, Schied et al. 2017, Eq. 3-5): depth, normal and
 // albedo as in zeta, and luminance relative to the standard deviation of the filtered value.
+// The arguments are the channels of both surfaces, so that the CPU filter can keep them in
+// planes (one array per channel) and evaluate a row of taps as vectors.
+// inverseTwoAlbedoSigmaSquared = 1 / (2 sigma_albedo^2).
+HV_FUNCTION float waveletWeightOfChannels(float centreDepth, float centreSpread,
+  float centreGradient, const glm::vec3& centreNormal, const glm::vec3& centreAlbedo,
+  float centreLuminance, float luminanceScale, float tapDepth, float tapSpread, float tapGradient,
+  const glm::vec3& tapNormal, const glm::vec3& tapAlbedo, float tapLuminance,
+  float inverseTwoAlbedoSigmaSquared, const EdgeStopping& e)
+{
+  const glm::vec3 albedoDifference = centreAlbedo - tapAlbedo;
+  const float albedoTerm =
+    glm::dot(albedoDifference, albedoDifference) * inverseTwoAlbedoSigmaSquared;
+  const float gradient = glm::min(centreGradient, tapGradient);
+  const float normalTerm =
+    e.normalSharpness * glm::max(0.0f, 1.0f - glm::dot(centreNormal, tapNormal)) * gradient;
+  const float depthTerm = glm::abs(centreDepth - tapDepth) /
+    (e.depthSigma * glm::max(centreDepth, 1e-6f) +
+      depthSlack(centreSpread, centreGradient, tapSpread, tapGradient) + 1e-12f);
+  const float luminanceTerm = glm::abs(centreLuminance - tapLuminance) * luminanceScale;
+  // A weight below e^-30 (1e-13) adds nothing a float sum can hold next to the centre tap's
+  // 0.25. Zeroing it keeps the weights and their squares (variance propagation) out of the
+  // subnormal range, which is slow on x86 and flushed on GPUs; the clamp keeps the unused
+  // side of the select (vector code evaluates both) normal too.
+  const float exponent = albedoTerm + normalTerm + depthTerm + luminanceTerm;
+  return exponent < 30.0f ? exponentialOfNegative(glm::min(exponent, 30.0f)) : 0.0f;
+}
+
+HV_FUNCTION float inverseTwoSigmaSquared(float sigma)
+{
+  return 1.0f / (2.0f * sigma * sigma + 1e-12f);
+}
+
 HV_FUNCTION float waveletWeight(const Surface& centre, const Surface& tap, float centreLuminance,
   float tapLuminance, float luminanceScale, const EdgeStopping& e)
 {
-  const glm::vec3 albedoDifference = centre.albedo - tap.albedo;
-  const float albedoTerm = glm::dot(albedoDifference, albedoDifference) /
-    (2.0f * e.albedoSigma * e.albedoSigma + 1e-12f);
-  const float gradient = glm::min(centre.gradientMagnitude, tap.gradientMagnitude);
-  const float normalTerm =
-    e.normalSharpness * glm::max(0.0f, 1.0f - glm::dot(centre.normal, tap.normal)) * gradient;
-  const float depthTerm = glm::abs(centre.depth - tap.depth) /
-    (e.depthSigma * glm::max(centre.depth, 1e-6f) +
-      depthSlack(centre.depthSpread, centre.gradientMagnitude, tap.depthSpread,
-        tap.gradientMagnitude) +
-      1e-12f);
-  const float luminanceTerm = glm::abs(centreLuminance - tapLuminance) * luminanceScale;
-  return glm::exp(-(albedoTerm + normalTerm + depthTerm + luminanceTerm));
+  return waveletWeightOfChannels(centre.depth, centre.depthSpread, centre.gradientMagnitude,
+    centre.normal, centre.albedo, centreLuminance, luminanceScale, tap.depth, tap.depthSpread,
+    tap.gradientMagnitude, tap.normal, tap.albedo, tapLuminance,
+    inverseTwoSigmaSquared(e.albedoSigma), e);
 }
 
 // Neighbourhood clamping of the reprojected history (Karis 2014; Salvi's variance box): the
