@@ -127,6 +127,30 @@ TEST(StereoDenoiser, StaticViewConverges)
   EXPECT_EQ(denoiser.historyLength(0, Width / 2, Height / 2), 0.0f);
 }
 
+// The history is the accumulated, unfiltered signal: a static view keeps improving until the
+// history reaches its maximum length. Feeding the spatially filtered value back instead blurs
+// old samples again every frame, and the error stops falling: from frame 16 to 48 this scene
+// gained 3.5 dB, and 0.5 dB when the first wavelet level's output was the history.
+TEST(StereoDenoiser, HistoryIsNotBlurredAgainEveryFrame)
+{
+  hvtest::SceneState scene;
+  StereoDenoiser denoiser;
+  StereoFrame frame;
+  double psnr16 = 0.0, psnr48 = 0.0;
+  for (std::uint32_t t = 0; t < 48; ++t)
+  {
+    frame.render(scene, t);
+    ASSERT_TRUE(frame.denoise(denoiser));
+    if (t == 15)
+    {
+      psnr16 = meanPSNR(frame);
+    }
+  }
+  psnr48 = meanPSNR(frame);
+  std::cout << "PSNR after 16 frames " << psnr16 << " dB, after 48 frames " << psnr48 << " dB\n";
+  EXPECT_GT(psnr48, psnr16 + 1.5);
+}
+
 // The square jumps to the right: wall pixels it uncovered must show the wall, not the
 // square's colour (no ghost), and they must count as disoccluded.
 TEST(StereoDenoiser, NoGhostInDisoccludedPixels)
