@@ -214,11 +214,11 @@ public:
    */
   enum Stage
   {
-    SurfaceStage = 0,  // surfaces, demodulation, silhouettes, depth spread
-    CrossViewStage,    // D1's corresponding pixels of Eq. 2
-    TemporalStage,     // D1's blending with the reprojected history
-    WaveletStage,      // D1's a-trous filter and re-modulation
-    StereoBlendStage,  // D2
+    SurfaceStage = 0, // surfaces, demodulation, silhouettes, depth spread
+    CrossViewStage,   // D1's corresponding pixels of Eq. 2
+    TemporalStage,    // D1's blending with the reprojected history
+    WaveletStage,     // D1's a-trous filter and re-modulation
+    StereoBlendStage, // D2
     NumberOfStages
   };
 

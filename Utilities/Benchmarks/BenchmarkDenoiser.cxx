@@ -175,8 +175,8 @@ int main(int argc, char* argv[])
         {
           v.StageMilliseconds[stage].push_back(v.Denoiser->GetLastStageMilliseconds(stage));
         }
-        surfaceFraction = 0.5 *
-          (v.Denoiser->GetLastSurfaceFraction(0) + v.Denoiser->GetLastSurfaceFraction(1));
+        surfaceFraction =
+          0.5 * (v.Denoiser->GetLastSurfaceFraction(0) + v.Denoiser->GetLastSurfaceFraction(1));
       }
     }
     if (frame >= 2)
@@ -203,14 +203,14 @@ int main(int argc, char* argv[])
       (std::string("vtkStereoSpatioTemporalDenoiser, ") + v.Name).c_str(), Median(v.Milliseconds),
       *std::min_element(v.Milliseconds.begin(), v.Milliseconds.end()));
   }
-  static const char* stageNames[vtkStereoSpatioTemporalDenoiser::NumberOfStages] = {
-    "surfaces", "D1 cross-view samples", "D1 temporal blending", "D1 wavelet filter", "D2"
-  };
+  static const char* stageNames[vtkStereoSpatioTemporalDenoiser::NumberOfStages] = { "surfaces",
+    "D1 cross-view samples", "D1 temporal blending", "D1 wavelet filter", "D2" };
   std::printf("\nfull denoiser by stage (median ms); %.1f%% of the pixels see the volume\n",
     100.0 * surfaceFraction);
   for (int stage = 0; stage < vtkStereoSpatioTemporalDenoiser::NumberOfStages; ++stage)
   {
-    std::printf("  %-42s %12.1f\n", stageNames[stage], Median(variants[0].StageMilliseconds[stage]));
+    std::printf(
+      "  %-42s %12.1f\n", stageNames[stage], Median(variants[0].StageMilliseconds[stage]));
   }
   std::printf("\nThe full denoiser costs %.1f%% of the frame it denoises.\n",
     100.0 * Median(variants[0].Milliseconds) / Median(renderMs));

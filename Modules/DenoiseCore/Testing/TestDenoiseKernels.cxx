@@ -234,3 +234,31 @@ TEST(DenoiseKernels, DemodulationRoundTripAndClamp)
     clampToNeighbourhood(glm::vec4(5.0f, 0.0f, 1.0f, 1.0f), glm::vec4(1.0f), glm::vec4(0.5f), 2.0f);
   EXPECT_EQ(clamped, glm::vec4(2.0f, 0.0f, 1.0f, 1.0f));
 }
+
+// The wavelet filter's inline e^-x (a vectorisable series) against the double-precision
+// exponential, and the edge-stopping weight's cut-off at e^-30.
+TEST(DenoiseKernels, InlineExponentialMatchesLibm)
+{
+  double worst = 0.0;
+  for (int k = 0; k <= 86000; ++k)
+  {
+    const float x = 0.001f * static_cast<float>(k);
+    const double expected = std::exp(-static_cast<double>(x));
+    worst = std::max(worst, std::abs(exponentialOfNegative(x) - expected) / expected);
+  }
+  std::cout << "largest relative error of e^-x on [0, 86]: " << worst << "\n";
+  EXPECT_LT(worst, 5e-6);
+  EXPECT_EQ(exponentialOfNegative(-2.0f), 1.0f);
+  EXPECT_GT(exponentialOfNegative(1000.0f), 0.0f); // clamped, not NaN or infinite
+
+  Surface centre;
+  centre.kind = SurfaceOwn;
+  centre.depth = 2.0f;
+  centre.normal = glm::vec3(0.0f, 0.0f, 1.0f);
+  centre.albedo = glm::vec3(0.5f);
+  const EdgeStopping edges;
+  EXPECT_NEAR(waveletWeight(centre, centre, 1.0f, 1.0f, 1.0f, edges), 1.0f, 1e-6f);
+  EXPECT_NEAR(waveletWeight(centre, centre, 1.0f, 1.0f + 29.0f, 1.0f, edges), std::exp(-29.0f),
+    5e-6f * std::exp(-29.0f));
+  EXPECT_EQ(waveletWeight(centre, centre, 1.0f, 1.0f + 31.0f, 1.0f, edges), 0.0f);
+}

@@ -60,8 +60,8 @@ struct ColourPlanes
   }
   glm::vec4 at(std::size_t i) const
   {
-    return glm::vec4(this->channel[0][i], this->channel[1][i], this->channel[2][i],
-      this->channel[3][i]);
+    return glm::vec4(
+      this->channel[0][i], this->channel[1][i], this->channel[2][i], this->channel[3][i]);
   }
   void set(std::size_t i, const glm::vec4& v)
   {
@@ -82,8 +82,8 @@ struct GuidePlanes
   void assign(std::size_t n)
   {
     for (std::vector<float>* plane : { &this->depth, &this->depthSpread, &this->gradientMagnitude,
-           &this->normal[0], &this->normal[1], &this->normal[2], &this->albedo[0],
-           &this->albedo[1], &this->albedo[2], &this->valid })
+           &this->normal[0], &this->normal[1], &this->normal[2], &this->albedo[0], &this->albedo[1],
+           &this->albedo[2], &this->valid })
     {
       plane->assign(n, 0.0f);
     }
@@ -126,13 +126,13 @@ struct EyeState
   // and reprojection lookups may land anywhere; inside, every buffer below is this frame's.
   std::vector<Surface> surface, previousSurface;
   std::vector<RowSpan> span, previousSpan;
-  std::vector<RowSpan> ownSpan; // pixels with their own first scatter point, per row
+  std::vector<RowSpan> ownSpan;            // pixels with their own first scatter point, per row
   std::vector<glm::vec4> raw, previousRaw; // demodulated (where a surface is seen) radiance
   std::vector<glm::vec4> fused;            // after the cross-view samples
   std::vector<float> fusedWeight;          // raw frames that `fused` averages
   std::vector<glm::vec4> history, nextHistory;
   std::vector<HistoryInfo> historyInfo, nextHistoryInfo;
-  ColourPlanes filtered[2];          // a-trous ping-pong
+  ColourPlanes filtered[2];           // a-trous ping-pong
   GuidePlanes guide;                  // this frame's surfaces for the wavelet filter
   std::vector<RowSpan> guideSpan;     // where guide.valid was last set
   std::vector<float> variance[2];     // variance of the filtered luminance
@@ -299,7 +299,10 @@ public:
   {
     _mm_setcsr(this->Saved | 0x8040); // FTZ (bit 15) and DAZ (bit 6)
   }
-  ~FlushSubnormals() { _mm_setcsr(this->Saved); }
+  ~FlushSubnormals()
+  {
+    _mm_setcsr(this->Saved);
+  }
 
 private:
   unsigned int Saved;
@@ -317,8 +320,8 @@ void filterWaveletRow(const GuidePlanes& guide, const ColourPlanes& in,
   const int count = end - begin;
   thread_local std::vector<float> scratch;
   scratch.assign(static_cast<std::size_t>(count) * 9, 0.0f);
-  float* __restrict sum[4] = { scratch.data(), scratch.data() + count,
-    scratch.data() + 2 * count, scratch.data() + 3 * count };
+  float* __restrict sum[4] = { scratch.data(), scratch.data() + count, scratch.data() + 2 * count,
+    scratch.data() + 3 * count };
   float* __restrict varianceSum = scratch.data() + 4 * count;
   float* __restrict weightSum = scratch.data() + 5 * count;
   float* __restrict luminanceScale = scratch.data() + 6 * count;
@@ -434,8 +437,7 @@ void filterWaveletRow(const GuidePlanes& guide, const ColourPlanes& in,
   for (int x = 0; x < count; ++x)
   {
     const std::size_t i = row + x;
-    filteredVariance[i] =
-      valid[i] > 0.0f ? varianceSum[x] / (weightSum[x] * weightSum[x]) : 0.0f;
+    filteredVariance[i] = valid[i] > 0.0f ? varianceSum[x] / (weightSum[x] * weightSum[x]) : 0.0f;
   }
 }
 
@@ -1066,9 +1068,8 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       {
         const std::size_t i = static_cast<std::size_t>(y) * width + x;
         const Surface& s = eye.surface[i];
-        eye.firstStep[i] = (s.kind != SurfaceNone && p.demodulateAlbedo)
-          ? remodulate(in.at(i), s.albedo)
-          : in.at(i);
+        eye.firstStep[i] =
+          (s.kind != SurfaceNone && p.demodulateAlbedo) ? remodulate(in.at(i), s.albedo) : in.at(i);
       }
     });
   this->Statistics.milliseconds[3] = millisecondsSince(stageStart);
@@ -1087,7 +1088,8 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       const RowSpan& span = eye.span[static_cast<std::size_t>(y)];
       const std::size_t rowStart = static_cast<std::size_t>(y) * width;
       const float* radiance = eyes[e].radiance;
-      std::copy(radiance + 4 * rowStart, radiance + 4 * (rowStart + span.begin), out + 4 * rowStart);
+      std::copy(
+        radiance + 4 * rowStart, radiance + 4 * (rowStart + span.begin), out + 4 * rowStart);
       std::copy(radiance + 4 * (rowStart + span.end), radiance + 4 * (rowStart + width),
         out + 4 * (rowStart + span.end));
       for (int x = span.begin; x < span.end; ++x)
