@@ -144,7 +144,6 @@ int main(int argc, char* argv[])
   variants[2].Denoiser->StereoBlendOff();
 
   std::vector<double> renderMs;
-  double surfaceFraction = 0.0;
   const double aspect = static_cast<double>(width) / height;
   std::cerr << "rendering and denoising " << frames + 2 << " stereo frames at " << width << "x"
             << height << " per eye";
@@ -175,8 +174,6 @@ int main(int argc, char* argv[])
         {
           v.StageMilliseconds[stage].push_back(v.Denoiser->GetLastStageMilliseconds(stage));
         }
-        surfaceFraction =
-          0.5 * (v.Denoiser->GetLastSurfaceFraction(0) + v.Denoiser->GetLastSurfaceFraction(1));
       }
     }
     if (frame >= 2)
@@ -206,7 +203,9 @@ int main(int argc, char* argv[])
   static const char* stageNames[vtkStereoSpatioTemporalDenoiser::NumberOfStages] = { "surfaces",
     "D1 cross-view samples", "D1 temporal blending", "D1 wavelet filter", "D2" };
   std::printf("\nfull denoiser by stage (median ms); %.1f%% of the pixels see the volume\n",
-    100.0 * surfaceFraction);
+    50.0 *
+      (variants[0].Denoiser->GetLastSurfaceFraction(0) +
+        variants[0].Denoiser->GetLastSurfaceFraction(1)));
   for (int stage = 0; stage < vtkStereoSpatioTemporalDenoiser::NumberOfStages; ++stage)
   {
     std::printf(

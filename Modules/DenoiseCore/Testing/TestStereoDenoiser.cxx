@@ -90,6 +90,24 @@ double meanPSNR(const StereoFrame& f)
   return 0.5 * (hvtest::psnr(f.outputs[0], f.eyes[0]) + hvtest::psnr(f.outputs[1], f.eyes[1]));
 }
 
+// Renders and denoises frames 0 .. count-1 of the still scene, calling visit(t) after each.
+template <typename Visit>
+bool denoiseStaticFrames(
+  StereoDenoiser& denoiser, StereoFrame& frame, std::uint32_t count, Visit&& visit)
+{
+  const hvtest::SceneState scene;
+  for (std::uint32_t t = 0; t < count; ++t)
+  {
+    frame.render(scene, t);
+    if (!frame.denoise(denoiser))
+    {
+      return false;
+    }
+    visit(t);
+  }
+  return true;
+}
+
 double rawPSNR(const StereoFrame& f)
 {
   return 0.5 *
@@ -101,21 +119,19 @@ double rawPSNR(const StereoFrame& f)
 // over the raw 2-sample frame, and 16 frames gain much more, with the history at its length.
 TEST(StereoDenoiser, StaticViewConverges)
 {
-  hvtest::SceneState scene;
   StereoDenoiser denoiser;
   StereoFrame frame;
   double firstGain = 0.0, lastGain = 0.0;
-  for (std::uint32_t t = 0; t < 16; ++t)
-  {
-    frame.render(scene, t);
-    ASSERT_TRUE(frame.denoise(denoiser));
-    const double gain = meanPSNR(frame) - rawPSNR(frame);
-    if (t == 0)
+  ASSERT_TRUE(denoiseStaticFrames(denoiser, frame, 16,
+    [&](std::uint32_t t)
     {
-      firstGain = gain;
-    }
-    lastGain = gain;
-  }
+      const double gain = meanPSNR(frame) - rawPSNR(frame);
+      if (t == 0)
+      {
+        firstGain = gain;
+      }
+      lastGain = gain;
+    }));
   std::cout << "raw " << rawPSNR(frame) << " dB, first-frame gain " << firstGain
             << " dB, 16-frame gain " << lastGain << " dB\n";
   EXPECT_GT(firstGain, 6.0);
@@ -133,20 +149,18 @@ TEST(StereoDenoiser, StaticViewConverges)
 // gained 3.5 dB, and 0.5 dB when the first wavelet level's output was the history.
 TEST(StereoDenoiser, HistoryIsNotBlurredAgainEveryFrame)
 {
-  hvtest::SceneState scene;
   StereoDenoiser denoiser;
   StereoFrame frame;
-  double psnr16 = 0.0, psnr48 = 0.0;
-  for (std::uint32_t t = 0; t < 48; ++t)
-  {
-    frame.render(scene, t);
-    ASSERT_TRUE(frame.denoise(denoiser));
-    if (t == 15)
+  double psnr16 = 0.0;
+  ASSERT_TRUE(denoiseStaticFrames(denoiser, frame, 48,
+    [&](std::uint32_t t)
     {
-      psnr16 = meanPSNR(frame);
-    }
-  }
-  psnr48 = meanPSNR(frame);
+      if (t == 15)
+      {
+        psnr16 = meanPSNR(frame);
+      }
+    }));
+  const double psnr48 = meanPSNR(frame);
   std::cout << "PSNR after 16 frames " << psnr16 << " dB, after 48 frames " << psnr48 << " dB\n";
   EXPECT_GT(psnr48, psnr16 + 1.5);
 }

@@ -319,7 +319,7 @@ void filterWaveletRow(const GuidePlanes& guide, const ColourPlanes& in,
   static const float kernel[3] = { 0.25f, 0.5f, 0.25f };
   const int count = end - begin;
   thread_local std::vector<float> scratch;
-  scratch.assign(static_cast<std::size_t>(count) * 9, 0.0f);
+  scratch.assign(static_cast<std::size_t>(count) * 10, 0.0f);
   float* __restrict sum[4] = { scratch.data(), scratch.data() + count, scratch.data() + 2 * count,
     scratch.data() + 3 * count };
   float* __restrict varianceSum = scratch.data() + 4 * count;
@@ -327,6 +327,7 @@ void filterWaveletRow(const GuidePlanes& guide, const ColourPlanes& in,
   float* __restrict luminanceScale = scratch.data() + 6 * count;
   float* __restrict centreLuminance = scratch.data() + 7 * count;
   float* __restrict blurWeight = scratch.data() + 8 * count;
+  float* __restrict blurredVariance = scratch.data() + 9 * count;
   const std::size_t row = static_cast<std::size_t>(y) * width + begin; // pixel of x = begin
 
   const float* __restrict valid = guide.valid.data();
@@ -347,7 +348,7 @@ void filterWaveletRow(const GuidePlanes& guide, const ColourPlanes& in,
       for (int x = first; x < last; ++x)
       {
         const std::size_t j = row + x + offset;
-        luminanceScale[x] += k * valid[j] * variance[j];
+        blurredVariance[x] += k * valid[j] * variance[j];
         blurWeight[x] += k * valid[j];
       }
     }
@@ -359,7 +360,7 @@ void filterWaveletRow(const GuidePlanes& guide, const ColourPlanes& in,
   for (int x = 0; x < count; ++x)
   {
     const std::size_t i = row + x;
-    const float blurred = luminanceScale[x] / glm::max(blurWeight[x], 1e-12f);
+    const float blurred = blurredVariance[x] / glm::max(blurWeight[x], 1e-12f);
     luminanceScale[x] = 1.0f / (luminanceSigma * std::sqrt(blurred) + 1e-6f);
     centreLuminance[x] = luminance(glm::vec3(r[i], g[i], b[i]));
     // The centre tap, whose edge-stopping weight is 1.
