@@ -383,6 +383,11 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.sigmoidSteepness = static_cast<float>(this->SigmoidSteepness);
   p.sigmoidCentre = static_cast<float>(this->SigmoidCenter);
   p.maximumHistoryLength = this->MaximumHistoryLength;
+  p.relightingRadius = static_cast<float>(this->RelightingRadius);
+  p.relitHistoryReuse = static_cast<float>(this->RelitHistoryReuse);
+  p.relitHistoryRejection = static_cast<float>(this->RelitHistoryRejection);
+  p.bicubicHistory = this->BicubicHistory;
+  p.maximumHistoryAngle = static_cast<float>(this->MaximumHistoryAngle);
   p.exponentialAverageAlpha = static_cast<float>(this->ExponentialAverageAlpha);
   p.depthTolerance = static_cast<float>(this->DepthTolerance);
   p.normalCosine = static_cast<float>(this->NormalTolerance);
@@ -458,6 +463,11 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "SigmoidSteepness: " << this->SigmoidSteepness << "\n";
   os << indent << "SigmoidCenter: " << this->SigmoidCenter << "\n";
   os << indent << "MaximumHistoryLength: " << this->MaximumHistoryLength << "\n";
+  os << indent << "RelightingRadius: " << this->RelightingRadius << "\n";
+  os << indent << "RelitHistoryReuse: " << this->RelitHistoryReuse << "\n";
+  os << indent << "RelitHistoryRejection: " << this->RelitHistoryRejection << "\n";
+  os << indent << "BicubicHistory: " << (this->BicubicHistory ? "On" : "Off") << "\n";
+  os << indent << "MaximumHistoryAngle: " << this->MaximumHistoryAngle << "\n";
   os << indent << "ExponentialAverageAlpha: " << this->ExponentialAverageAlpha << "\n";
   os << indent << "DepthTolerance: " << this->DepthTolerance << "\n";
   os << indent << "NormalTolerance: " << this->NormalTolerance << "\n";

@@ -129,55 +129,90 @@ glm::mat4 FieldMatrix(vtkImageData* image, const char* name)
   return matrix;
 }
 
-// RMS over left pixels whose first scatter point the right eye also sees (depth within 2 %)
-// of the difference between the eyes' errors, in display values.
-double InterEyeDiscrepancy(vtkImageData* leftEye, vtkImageData* rightEye,
-  const std::vector<float>& left, const std::vector<float>& right,
-  const std::vector<float>& leftReference, const std::vector<float>& rightReference)
+// A converged frame: both eyes' display values and, for the inter-eye figures, which right pixel
+// sees what each left pixel sees.
+struct Reference
+{
+  std::vector<float> eye[2];
+  std::vector<std::pair<vtkIdType, vtkIdType>> correspondingPixels;
+};
+
+// The expected first scatter depth of every pixel, averaged over the reference's frames (each
+// frame's depth is that of one random sample), then the left pixels whose expected first scatter
+// point, on the ray through the pixel centre, the right eye sees at the same depth (within 2 %),
+// each with that right pixel. A raw frame's own first scatter points would pair pixels at a
+// random offset (jittered sample rays, a random depth inside translucent tissue), and the
+// figures would then also count how much the image changes over a pixel.
+std::vector<std::pair<vtkIdType, vtkIdType>> CorrespondingPixels(
+  const std::vector<float> meanDepth[2], vtkImageData* leftEye, vtkImageData* rightEye)
 {
   int dims[3];
   leftEye->GetDimensions(dims);
-  auto* position = vtkFloatArray::SafeDownCast(leftEye->GetPointData()->GetArray("FirstScatterPosition"));
-  vtkDataArray* valid = leftEye->GetPointData()->GetArray("FirstScatterValid");
-  auto* rightDepth = vtkFloatArray::SafeDownCast(rightEye->GetPointData()->GetArray("Depth"));
-  vtkDataArray* rightValid = rightEye->GetPointData()->GetArray("FirstScatterValid");
+  const glm::mat4 leftView = FieldMatrix(leftEye, "ViewMatrix");
+  const glm::mat4 inverseLeftProjection = glm::inverse(FieldMatrix(leftEye, "ProjectionMatrix"));
+  const glm::mat4 inverseLeftView = glm::inverse(leftView);
   const glm::mat4 view = FieldMatrix(rightEye, "ViewMatrix");
   const glm::mat4 viewProjection = FieldMatrix(rightEye, "ProjectionMatrix") * view;
-  double squared = 0.0;
-  std::size_t count = 0;
-  for (vtkIdType i = 0; i < static_cast<vtkIdType>(dims[0]) * dims[1]; ++i)
+  std::vector<std::pair<vtkIdType, vtkIdType>> pairs;
+  for (int y = 0; y < dims[1]; ++y)
   {
-    if (!valid->GetComponent(i, 0))
+    for (int x = 0; x < dims[0]; ++x)
     {
-      continue;
-    }
-    const glm::vec3 x(position->GetComponent(i, 0), position->GetComponent(i, 1),
-      position->GetComponent(i, 2));
-    glm::vec2 pixel;
-    float depth;
-    if (!hv::denoise::projectToPixel(viewProjection, view, dims[0], dims[1], x, pixel, depth))
-    {
-      continue;
-    }
-    const vtkIdType q = static_cast<vtkIdType>(pixel.y) * dims[0] + static_cast<vtkIdType>(pixel.x);
-    if (!rightValid->GetComponent(q, 0) || std::abs(rightDepth->GetValue(q) - depth) > 0.02f * depth)
-    {
-      continue;
-    }
-    for (int c = 0; c < 3; ++c)
-    {
-      const double d = (left[3 * i + c] - leftReference[3 * i + c]) -
-        (right[3 * q + c] - rightReference[3 * q + c]);
-      squared += d * d;
-      ++count;
+      const vtkIdType i = static_cast<vtkIdType>(y) * dims[0] + x;
+      if (!(meanDepth[0][i] > 0.0f))
+      {
+        continue;
+      }
+      const glm::vec4 ndc(
+        2.0f * (x + 0.5f) / dims[0] - 1.0f, 2.0f * (y + 0.5f) / dims[1] - 1.0f, 1.0f, 1.0f);
+      glm::vec4 direction = inverseLeftProjection * ndc;
+      const glm::vec3 ray = glm::vec3(direction) / direction.w;
+      const glm::vec3 eyePoint = ray * (meanDepth[0][i] / -ray.z);
+      const glm::vec3 world = glm::vec3(inverseLeftView * glm::vec4(eyePoint, 1.0f));
+      glm::vec2 pixel;
+      float depth;
+      if (!hv::denoise::projectToPixel(viewProjection, view, dims[0], dims[1], world, pixel, depth))
+      {
+        continue;
+      }
+      const vtkIdType q =
+        static_cast<vtkIdType>(pixel.y) * dims[0] + static_cast<vtkIdType>(pixel.x);
+      if (meanDepth[1][q] > 0.0f && std::abs(meanDepth[1][q] - depth) <= 0.02f * depth)
+      {
+        pairs.emplace_back(i, q);
+      }
     }
   }
-  return count ? std::sqrt(squared / static_cast<double>(count)) : 0.0;
+  return pairs;
+}
+
+// RMS over corresponding pixels (i, q) of (left - leftBaseline)(i) - (right - rightBaseline)(q),
+// in display values. With the references as baselines it is the difference of the eyes'
+// errors, which counts everything that differs between the eyes: noise, but also each eye's own
+// bias (blur, resampling) and the references' remaining noise. With the same frames rendered
+// again with independent random numbers (and denoised by a second instance of the method) as
+// baselines, the biases and the references cancel, and what is left is the difference of the
+// eyes' noise, what D2 is for: Var(d1 - d2) = 2 Var(d), so it is divided by sqrt(2).
+double InterEyeDifference(const std::vector<std::pair<vtkIdType, vtkIdType>>& pairs,
+  const std::vector<float>& left, const std::vector<float>& right,
+  const std::vector<float>& leftBaseline, const std::vector<float>& rightBaseline)
+{
+  double squared = 0.0;
+  for (const auto& [i, q] : pairs)
+  {
+    for (int c = 0; c < 3; ++c)
+    {
+      const double d =
+        (left[3 * i + c] - leftBaseline[3 * i + c]) - (right[3 * q + c] - rightBaseline[3 * q + c]);
+      squared += d * d;
+    }
+  }
+  return pairs.empty() ? 0.0 : std::sqrt(squared / (3.0 * static_cast<double>(pairs.size())));
 }
 
 struct Accumulator
 {
-  double psnr = 0.0, ssim = 0.0, flicker = 0.0, discrepancy = 0.0;
+  double psnr = 0.0, ssim = 0.0, flicker = 0.0, errorDifference = 0.0, noiseDiscrepancy = 0.0;
   int frames = 0, flickerFrames = 0;
   std::vector<double> psnrPerFrame;
   std::vector<float> previous[2];
@@ -334,19 +369,24 @@ int main(int argc, char* argv[])
   vtkNew<vtkMatrix4x4> environmentToWorld;
   holovolume::EnvironmentToRASWorld(environmentToWorld, 0.0);
 
-  // Raw frames (2 spp, a new sample set every frame) and references (accumulated).
-  vtkNew<vtkPathTracedVolumeMapper> raw, reference;
-  for (vtkPathTracedVolumeMapper* m : { raw.Get(), reference.Get() })
+  // Raw frames (2 spp, a new sample set every frame), the same frames with independent random
+  // numbers (for the noise discrepancy), and references (accumulated).
+  vtkNew<vtkPathTracedVolumeMapper> raw, twin, reference;
+  for (vtkPathTracedVolumeMapper* m : { raw.Get(), twin.Get(), reference.Get() })
   {
     m->SetInputData(volumeData);
     m->SetEnvironmentToWorldMatrix(environmentToWorld);
   }
   raw->ProgressiveAccumulationOff();
+  twin->ProgressiveAccumulationOff();
+  twin->SetSeed(15485863);
   reference->SetSamplesPerPixel(64);
   reference->SetSeed(7919);
-  vtkNew<vtkVolume> rawVolume, referenceVolume;
+  vtkNew<vtkVolume> rawVolume, twinVolume, referenceVolume;
   rawVolume->SetMapper(raw);
   rawVolume->SetProperty(property);
+  twinVolume->SetMapper(twin);
+  twinVolume->SetProperty(property);
   referenceVolume->SetMapper(reference);
   referenceVolume->SetProperty(property);
   const double aspect = static_cast<double>(options.Width) / options.Height;
@@ -361,19 +401,52 @@ int main(int argc, char* argv[])
     }
   };
   auto renderReference = [&](vtkImageData* environment, vtkMatrix4x4* views[2],
-                           vtkMatrix4x4* projections[2], int samples, std::vector<float> out[2])
+                           vtkMatrix4x4* projections[2], int samples, Reference& out)
   {
     reference->SetEnvironmentMapData(environment);
     reference->ResetAccumulation();
+    const std::size_t pixels = static_cast<std::size_t>(options.Width) * options.Height;
+    std::vector<float> depthSum[2], meanDepth[2];
+    std::vector<int> depthCount[2];
+    for (int e = 0; e < 2; ++e)
+    {
+      depthSum[e].assign(pixels, 0.0f);
+      depthCount[e].assign(pixels, 0);
+    }
     for (int k = 0; k < samples / 64; ++k)
     {
       reference->RenderStereoFrame(referenceVolume, views[0], projections[0], views[1],
         projections[1], options.Width, options.Height);
+      for (int e = 0; e < 2; ++e)
+      {
+        vtkPointData* buffers = reference->GetEyeOutput(e)->GetPointData();
+        vtkDataArray* depth = buffers->GetArray("Depth");
+        vtkDataArray* valid = buffers->GetArray("FirstScatterValid");
+        for (std::size_t i = 0; i < pixels; ++i)
+        {
+          if (valid->GetComponent(static_cast<vtkIdType>(i), 0))
+          {
+            depthSum[e][i] += static_cast<float>(depth->GetComponent(static_cast<vtkIdType>(i), 0));
+            ++depthCount[e][i];
+          }
+        }
+      }
     }
     for (int e = 0; e < 2; ++e)
     {
-      out[e] = Display(reference->GetEyeOutput(e));
+      out.eye[e] = Display(reference->GetEyeOutput(e));
+      meanDepth[e].assign(pixels, 0.0f);
+      for (std::size_t i = 0; i < pixels; ++i)
+      {
+        // A pixel counts as covered when most frames scattered there.
+        if (2 * depthCount[e][i] > samples / 64)
+        {
+          meanDepth[e][i] = depthSum[e][i] / static_cast<float>(depthCount[e][i]);
+        }
+      }
     }
+    out.correspondingPixels =
+      CorrespondingPixels(meanDepth, reference->GetEyeOutput(0), reference->GetEyeOutput(1));
   };
 
   std::printf("# holovolume-denoise-evaluation\n\n%s under %s, %dx%d per eye, %d stereo frames "
@@ -385,7 +458,7 @@ int main(int argc, char* argv[])
   // Raw PSNR against the spp, for the equal-quality figure: the static view, an independent
   // sample set, against a reference of 4x the per-frame reference's samples.
   std::vector<std::pair<int, double>> rawCurve;
-  std::vector<float> staticReference[2];
+  Reference staticReference;
   {
     vtkNew<vtkMatrix4x4> v0, v1, p0, p1;
     vtkMatrix4x4* views[2] = { v0, v1 };
@@ -410,8 +483,8 @@ int main(int argc, char* argv[])
       if (2 * frame == next)
       {
         const double psnr = 0.5 *
-          (hv::denoise::displayPSNR(Display(curve->GetEyeOutput(0)), staticReference[0]) +
-            hv::denoise::displayPSNR(Display(curve->GetEyeOutput(1)), staticReference[1]));
+          (hv::denoise::displayPSNR(Display(curve->GetEyeOutput(0)), staticReference.eye[0]) +
+            hv::denoise::displayPSNR(Display(curve->GetEyeOutput(1)), staticReference.eye[1]));
         rawCurve.emplace_back(next, psnr);
         next *= 2;
       }
@@ -461,16 +534,20 @@ int main(int argc, char* argv[])
       return 2;
     }
     std::cerr << "sequence " << sequence;
-    vtkNew<vtkStereoSpatioTemporalDenoiser> denoisers[MethodCount];
-    denoisers[1]->CrossViewSamplesOff();
-    denoisers[1]->TemporalAccumulationOff();
-    denoisers[1]->StereoBlendOff();
-    denoisers[2]->CrossViewSamplesOff();
-    denoisers[2]->SpatialFilterOff();
-    denoisers[2]->StereoBlendOff();
-    denoisers[2]->SetExponentialAverageAlpha(0.2);
-    denoisers[2]->SetClampWidth(0.0);
-    denoisers[3]->StereoBlendOff();
+    // [run][method]: run 1 denoises the twin frames.
+    vtkNew<vtkStereoSpatioTemporalDenoiser> denoisers[2][MethodCount];
+    for (auto& run : denoisers)
+    {
+      run[1]->CrossViewSamplesOff();
+      run[1]->TemporalAccumulationOff();
+      run[1]->StereoBlendOff();
+      run[2]->CrossViewSamplesOff();
+      run[2]->SpatialFilterOff();
+      run[2]->StereoBlendOff();
+      run[2]->SetExponentialAverageAlpha(0.2);
+      run[2]->SetClampWidth(0.0);
+      run[3]->StereoBlendOff();
+    }
     vtkNew<vtkEnvironmentSyncedLight> light;
     light->SetInputDynamicRange(vtkEnvironmentSyncedLight::HIGH_DYNAMIC_RANGE);
     light->SetOutputHeight(64);
@@ -480,7 +557,7 @@ int main(int argc, char* argv[])
     std::vector<double> illuminationDifferences;
     const int switchFrame = options.Frames / 2;
     vtkSmartPointer<vtkImageData> lampOn = sequence == "switch" ? WithLamp(baseEnvironment) : nullptr;
-    std::vector<float> switchReference[2][2]; // [lamp][eye]
+    Reference switchReference[2]; // [lamp]
     std::vector<std::vector<float>> thumbnails;
     const int thumbnailFrame = sequence == "static" ? std::min(15, options.Frames - 1)
       : sequence == "switch"                        ? switchFrame + 1
@@ -504,6 +581,7 @@ int main(int argc, char* argv[])
         environment = lampOn;
       }
       raw->SetEnvironmentMapData(environment);
+      twin->SetEnvironmentMapData(environment);
       // Each frame is a new camera frame for the synced light, even when the room is the same.
       vtkNew<vtkImageData> cameraFrame;
       cameraFrame->ShallowCopy(environment);
@@ -519,42 +597,54 @@ int main(int argc, char* argv[])
       illuminationDifferences.push_back(t);
       raw->RenderStereoFrame(rawVolume, views[0], projections[0], views[1], projections[1],
         options.Width, options.Height);
+      twin->RenderStereoFrame(twinVolume, views[0], projections[0], views[1], projections[1],
+        options.Width, options.Height);
 
-      std::vector<float>* references = nullptr;
-      std::vector<float> frameReference[2];
+      const Reference* current = nullptr;
+      Reference frameReference;
       if (sequence == "static")
       {
-        references = staticReference;
+        current = &staticReference;
       }
       else if (sequence == "switch")
       {
         const int lamp = frame >= switchFrame ? 1 : 0;
-        if (switchReference[lamp][0].empty())
+        if (switchReference[lamp].eye[0].empty())
         {
           renderReference(environment, views, projections, options.ReferenceSamples,
             switchReference[lamp]);
         }
-        references = switchReference[lamp];
+        current = &switchReference[lamp];
       }
       else
       {
         renderReference(environment, views, projections, options.ReferenceSamples, frameReference);
-        references = frameReference;
+        current = &frameReference;
       }
 
+      const std::vector<float>* references = current->eye;
+      const std::vector<std::pair<vtkIdType, vtkIdType>>& pairs = current->correspondingPixels;
       for (int m = 0; m < MethodCount; ++m)
       {
-        vtkImageData* eyes[2] = { raw->GetEyeOutput(0), raw->GetEyeOutput(1) };
-        if (m > 0)
+        std::vector<float> display[2], twinDisplay[2];
+        for (int run = 0; run < 2; ++run)
         {
-          denoisers[m]->SetInputData(0, eyes[0]);
-          denoisers[m]->SetInputData(1, eyes[1]);
-          denoisers[m]->SetIlluminationDifference(t);
-          denoisers[m]->Update();
-          eyes[0] = denoisers[m]->GetEyeOutput(0);
-          eyes[1] = denoisers[m]->GetEyeOutput(1);
+          vtkPathTracedVolumeMapper* source = run == 0 ? raw.Get() : twin.Get();
+          vtkImageData* eyes[2] = { source->GetEyeOutput(0), source->GetEyeOutput(1) };
+          if (m > 0)
+          {
+            vtkStereoSpatioTemporalDenoiser* denoiser = denoisers[run][m];
+            denoiser->SetInputData(0, eyes[0]);
+            denoiser->SetInputData(1, eyes[1]);
+            denoiser->SetIlluminationDifference(t);
+            denoiser->Update();
+            eyes[0] = denoiser->GetEyeOutput(0);
+            eyes[1] = denoiser->GetEyeOutput(1);
+          }
+          std::vector<float>* out = run == 0 ? display : twinDisplay;
+          out[0] = Display(eyes[0]);
+          out[1] = Display(eyes[1]);
         }
-        std::vector<float> display[2] = { Display(eyes[0]), Display(eyes[1]) };
         Accumulator& a = results[m];
         double psnr = 0.0;
         for (int e = 0; e < 2; ++e)
@@ -569,8 +659,10 @@ int main(int argc, char* argv[])
         a.flickerFrames += a.previous[0].empty() ? 0 : 1;
         a.psnr += psnr;
         a.psnrPerFrame.push_back(psnr);
-        a.discrepancy += InterEyeDiscrepancy(raw->GetEyeOutput(0), raw->GetEyeOutput(1),
-          display[0], display[1], references[0], references[1]);
+        a.errorDifference +=
+          InterEyeDifference(pairs, display[0], display[1], references[0], references[1]);
+        a.noiseDiscrepancy += std::sqrt(0.5) *
+          InterEyeDifference(pairs, display[0], display[1], twinDisplay[0], twinDisplay[1]);
         ++a.frames;
         a.previous[0] = display[0];
         a.previous[1] = display[1];
@@ -613,7 +705,7 @@ int main(int argc, char* argv[])
       std::printf(" (at the switch, frame %d: %.3f)", switchFrame, illuminationDifferences[switchFrame]);
     }
     std::printf("\n\n| method | PSNR dB | SSIM | equal-quality spp | flicker (x1000) | "
-                "inter-eye discrepancy (x1000) |");
+                "inter-eye noise discrepancy (x1000) | inter-eye error difference (x1000) |");
     if (sequence == "static")
     {
       std::printf(" PSNR at frame 16 |");
@@ -622,7 +714,8 @@ int main(int argc, char* argv[])
     {
       std::printf(" frames to recover |");
     }
-    std::printf("\n|---|---|---|---|---|---|%s\n", sequence == "static" || sequence == "switch" ? "---|" : "");
+    std::printf("\n|---|---|---|---|---|---|---|%s\n",
+      sequence == "static" || sequence == "switch" ? "---|" : "");
     for (int m = 0; m < MethodCount; ++m)
     {
       const Accumulator& a = results[m];
@@ -637,10 +730,10 @@ int main(int argc, char* argv[])
       {
         sppText << static_cast<int>(std::lround(spp));
       }
-      std::printf("| %s | %.2f | %.4f | %s | %.2f | %.2f |", MethodNames[m], psnr,
+      std::printf("| %s | %.2f | %.4f | %s | %.2f | %.2f | %.2f |", MethodNames[m], psnr,
         a.ssim / a.frames, sppText.str().c_str(),
         1000.0 * (a.flicker / std::max(a.flickerFrames, 1) - referenceFlickerMean),
-        1000.0 * a.discrepancy / a.frames);
+        1000.0 * a.noiseDiscrepancy / a.frames, 1000.0 * a.errorDifference / a.frames);
       if (sequence == "static")
       {
         const int at = std::min(15, a.frames - 1);
@@ -673,7 +766,10 @@ int main(int argc, char* argv[])
       std::printf("\n");
     }
     std::printf("\nflicker: mean absolute frame-to-frame change minus the references' (%.4f); "
-                "discrepancy: RMS of the difference of the eyes' errors at corresponding pixels\n",
+                "noise discrepancy: RMS of the difference of the eyes' noise at corresponding "
+                "pixels (from a second run with independent random numbers); error difference: "
+                "RMS of the difference of the eyes' errors there (noise, bias and the references' "
+                "own noise)\n",
       referenceFlickerMean);
     std::fflush(stdout);
   }

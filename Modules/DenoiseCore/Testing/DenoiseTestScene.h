@@ -50,6 +50,13 @@ struct SceneState
 {
   glm::vec3 squareCentre{ 0.0f, 0.0f, 1.5f }; // the floating square, 1.6 wide, facing +z
   float irradianceScale = 1.0f;                // the lighting: scales every radiance
+  // A second light from +x: adds sideLight (1/2 + x / 6) to the irradiance factor, from 0 at
+  // the wall's left edge to sideLight at its right edge; a change that differs over the image.
+  float sideLight = 0.0f;
+  // The square's hard shadow on the wall: its outline shifted by this much along the wall (the
+  // light's direction), where the wall gets shadowLevel of its light; none when shadowLevel = 1.
+  glm::vec2 shadowShift{ 0.0f, 0.0f };
+  float shadowLevel = 1.0f;
   glm::vec3 cameraPosition{ 0.0f, 0.0f, 8.0f }; // between the eyes, looking at -z
   float interpupillaryDistance = 0.3f;
   float focalDistance = 8.0f;
@@ -125,7 +132,12 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
           const bool dark =
             (static_cast<int>(std::floor(p.x / 0.5f)) + static_cast<int>(std::floor(p.y / 0.5f))) & 1;
           albedo = dark ? glm::vec3(0.3f, 0.25f, 0.2f) : glm::vec3(0.85f, 0.8f, 0.7f);
-          const float irradiance = 1.0f + 0.5f * std::sin(1.3f * p.x) * std::cos(0.9f * p.y);
+          float irradiance = 1.0f + 0.5f * std::sin(1.3f * p.x) * std::cos(0.9f * p.y);
+          if (std::abs(p.x - scene.squareCentre.x - scene.shadowShift.x) < 0.8f &&
+            std::abs(p.y - scene.squareCentre.y - scene.shadowShift.y) < 0.8f)
+          {
+            irradiance *= scene.shadowLevel;
+          }
           radiance = albedo * irradiance;
           found = true;
         }
@@ -134,7 +146,7 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
       {
         continue;
       }
-      radiance *= scene.irradianceScale;
+      radiance *= scene.irradianceScale + scene.sideLight * (0.5f + hit.x / 6.0f);
       out.valid[i] = 1;
       for (int c = 0; c < 3; ++c)
       {

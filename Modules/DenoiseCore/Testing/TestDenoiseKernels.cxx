@@ -235,6 +235,31 @@ TEST(DenoiseKernels, DemodulationRoundTripAndClamp)
   EXPECT_EQ(clamped, glm::vec4(2.0f, 0.0f, 1.0f, 1.0f));
 }
 
+// Catmull-Rom weights: a partition of unity that interpolates the taps and reproduces a ramp,
+// so a fetch between pixel centres neither blurs nor shifts a linear gradient.
+TEST(DenoiseKernels, CatmullRomWeights)
+{
+  float w[4];
+  catmullRomWeights(0.0f, w);
+  EXPECT_EQ(w[0], 0.0f);
+  EXPECT_EQ(w[1], 1.0f);
+  EXPECT_EQ(w[2], 0.0f);
+  EXPECT_EQ(w[3], 0.0f);
+  for (float t : { 0.1f, 0.25f, 0.5f, 0.8f, 0.999f })
+  {
+    catmullRomWeights(t, w);
+    EXPECT_NEAR(w[0] + w[1] + w[2] + w[3], 1.0f, 1e-6f);
+    // Taps at -1, 0, 1, 2 of the ramp f(x) = 3 x + 1.
+    EXPECT_NEAR(w[0] * -2.0f + w[1] * 1.0f + w[2] * 4.0f + w[3] * 7.0f, 3.0f * t + 1.0f, 1e-5f);
+    EXPECT_LT(w[0], 0.0f); // the negative lobes that keep the detail
+    EXPECT_LT(w[3], 0.0f);
+  }
+  catmullRomWeights(0.5f, w);
+  EXPECT_NEAR(w[1], 0.5625f, 1e-6f); // symmetric at the midpoint: 9/16 and -1/16
+  EXPECT_NEAR(w[0], -0.0625f, 1e-6f);
+  EXPECT_EQ(w[1], w[2]);
+}
+
 // The wavelet filter's inline e^-x (a vectorisable series) against the double-precision
 // exponential, and the edge-stopping weight's cut-off at e^-30.
 TEST(DenoiseKernels, InlineExponentialMatchesLibm)

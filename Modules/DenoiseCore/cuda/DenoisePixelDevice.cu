@@ -2,8 +2,9 @@
 // Copyright (c) 2026 the HoloVolume developers.
 //
 // Instantiates the denoiser's per-pixel functions as CUDA device code: cross-view
-// reprojection with its disocclusion test and zeta, w_v's sigmoid, one a-trous tap and D2's
-// blend. It proves they stay device-compilable; a CUDA backend that launches them comes later.
+// reprojection with its disocclusion test and zeta, w_v's sigmoid, one a-trous tap, D2's
+// blend and the Catmull-Rom history fetch. It proves they stay device-compilable; a CUDA backend
+// that launches them comes later.
 #include "hv/denoise/DenoiseKernels.h"
 
 namespace hv
@@ -47,6 +48,39 @@ __global__ void stereoBlendKernel(const Surface* left, const Surface* right,
   out[i] = clampToNeighbourhood(remodulate(demodulate(value, s.albedo), s.albedo), leftD1[i],
     glm::vec4(1.0f), 2.0f);
   weights[i] = w;
+}
+
+// The history fetched at a sub-pixel position with Catmull-Rom weights (the separable 4x4
+// fetch of the CPU path), where the taps lie inside the image.
+__global__ void bicubicHistoryKernel(
+  const glm::vec4* history, const glm::vec2* positions, int width, int height, glm::vec4* out)
+{
+  const int x = blockIdx.x * blockDim.x + threadIdx.x;
+  const int y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x >= width || y >= height)
+  {
+    return;
+  }
+  const int i = y * width + x;
+  const float fx = positions[i].x - 0.5f;
+  const float fy = positions[i].y - 0.5f;
+  const int x0 = static_cast<int>(floorf(fx));
+  const int y0 = static_cast<int>(floorf(fy));
+  glm::vec4 sum(0.0f);
+  if (x0 >= 1 && y0 >= 1 && x0 + 2 < width && y0 + 2 < height)
+  {
+    float wx[4], wy[4];
+    catmullRomWeights(fx - static_cast<float>(x0), wx);
+    catmullRomWeights(fy - static_cast<float>(y0), wy);
+    for (int j = 0; j < 4; ++j)
+    {
+      for (int k = 0; k < 4; ++k)
+      {
+        sum += (wx[k] * wy[j]) * history[(y0 - 1 + j) * width + (x0 - 1 + k)];
+      }
+    }
+  }
+  out[i] = sum;
 }
 }
 }

@@ -2,6 +2,9 @@
 // Copyright (c) 2026 the HoloVolume developers.
 #include "hv/denoise/StereoDenoiser.h"
 
+#include <glm/gtc/constants.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -137,6 +140,9 @@ struct EyeState
   std::vector<RowSpan> guideSpan;     // where guide.valid was last set
   std::vector<float> variance[2];     // variance of the filtered luminance
   std::vector<glm::vec4> firstStep;   // D1 output, re-modulated
+  // New over old incident light (RGB) where T says it changed, and whether the relit history
+  // agrees with the frame at the fine scale (w, 1 or 0).
+  std::vector<glm::vec4> relightingRatio;
 
   // This frame becomes the previous one; the buffers it replaces are kept for undoCommit().
   void commit()
@@ -200,6 +206,7 @@ struct EyeState
       this->variance[i].assign(n, 0.0f);
     }
     this->firstStep.assign(n, glm::vec4(0.0f));
+    this->relightingRatio.clear(); // sized on first use: most scenes never relight
   }
 };
 
@@ -254,6 +261,113 @@ Surface asSeenFrom(const Surface& surface, float viewDepth)
   Surface seen = surface;
   seen.depth = viewDepth;
   return seen;
+}
+
+// A pixel's history fetched from the previous frame (bilinear over the taps whose surface is
+// the same point), with its statistics and zeta of the best-weighted tap.
+struct ReprojectedHistory
+{
+  glm::vec4 value = glm::vec4(0.0f);
+  HistoryInfo info;
+  float zeta = 0.0f;
+  bool valid = false;
+};
+
+// The history's colour by a Catmull-Rom fetch over the 4x4 taps around `pixel`, where all of
+// them see the same surface; clamped to the range of the four bilinear taps so that the
+// cubic's lobes cannot overshoot. Elsewhere (an edge, a disocclusion, the image border) the
+// bilinear value stays.
+void fetchBicubic(const EyeState& eye, const Surface& s, const glm::vec2& pixel, float depth,
+  int width, int height, const DenoiserParameters& p, const BilinearTaps& bilinear,
+  glm::vec4& value)
+{
+  const float fx = pixel.x - 0.5f;
+  const float fy = pixel.y - 0.5f;
+  const int x0 = static_cast<int>(std::floor(fx));
+  const int y0 = static_cast<int>(std::floor(fy));
+  if (x0 < 1 || y0 < 1 || x0 + 2 >= width || y0 + 2 >= height)
+  {
+    return;
+  }
+  float wx[4], wy[4];
+  catmullRomWeights(fx - static_cast<float>(x0), wx);
+  catmullRomWeights(fy - static_cast<float>(y0), wy);
+  glm::vec4 sum(0.0f);
+  for (int j = 0; j < 4; ++j)
+  {
+    const std::size_t row = static_cast<std::size_t>(y0 - 1 + j) * width;
+    for (int k = 0; k < 4; ++k)
+    {
+      const std::size_t index = row + static_cast<std::size_t>(x0 - 1 + k);
+      if (!consistentSurface(eye.previousSurface[index], depth, s.normal, s.gradientMagnitude,
+            s.depthSpread, p.depthTolerance, p.normalCosine))
+      {
+        return;
+      }
+      sum += (wx[k] * wy[j]) * eye.history[index];
+    }
+  }
+  glm::vec4 low = eye.history[bilinear.index[0]], high = low;
+  for (int t = 1; t < bilinear.count; ++t)
+  {
+    low = glm::min(low, eye.history[bilinear.index[t]]);
+    high = glm::max(high, eye.history[bilinear.index[t]]);
+  }
+  value = glm::clamp(sum, low, high);
+}
+
+ReprojectedHistory reprojectHistory(
+  const EyeState& eye, const Surface& s, int width, int height, const DenoiserParameters& p)
+{
+  ReprojectedHistory reprojected;
+  glm::vec2 pixel;
+  float depth;
+  if (!projectToPixel(eye.previousViewProjection, eye.previousView, width, height,
+        glm::vec3(eye.toPreviousWorld * glm::vec4(s.firstScatterPosition, 1.0f)), pixel, depth))
+  {
+    return reprojected;
+  }
+  const BilinearTaps taps = bilinearTaps(pixel, width, height);
+  HistoryInfo& previous = reprojected.info;
+  float weightSum = 0.0f;
+  float bestTap = -1.0f;
+  for (int t = 0; t < taps.count; ++t)
+  {
+    const Surface& stored = eye.previousSurface[taps.index[t]];
+    if (!consistentSurface(stored, depth, s.normal, s.gradientMagnitude, s.depthSpread,
+          p.depthTolerance, p.normalCosine))
+    {
+      continue;
+    }
+    const float w = taps.weight[t];
+    const HistoryInfo& h = eye.historyInfo[taps.index[t]];
+    reprojected.value += w * eye.history[taps.index[t]];
+    previous.luminanceMean += w * h.luminanceMean;
+    previous.luminanceSquareMean += w * h.luminanceSquareMean;
+    previous.sampleCount += w * h.sampleCount;
+    previous.frames += w * h.frames;
+    weightSum += w;
+    if (w > bestTap)
+    {
+      bestTap = w;
+      reprojected.zeta = bilateralWeight(asSeenFrom(s, depth), stored, p.temporal);
+    }
+  }
+  if (weightSum > 0.05f)
+  {
+    const float inverse = 1.0f / weightSum;
+    reprojected.value *= inverse;
+    previous.luminanceMean *= inverse;
+    previous.luminanceSquareMean *= inverse;
+    previous.sampleCount *= inverse;
+    previous.frames *= inverse;
+    reprojected.valid = true;
+    if (p.bicubicHistory && taps.count == 4 && weightSum > 0.999f)
+    {
+      fetchBicubic(eye, s, pixel, depth, width, height, p, taps, reprojected.value);
+    }
+  }
+  return reprojected;
 }
 
 // Calls visit(j, dx, dy) for each tap of the 3x3 stencil with spacing `step` around (x, y)
@@ -464,6 +578,143 @@ struct StereoDenoiser::Internals
         if (span.begin < span.end)
         {
           row(e, y, span.begin, span.end);
+        }
+      });
+  }
+
+  // The ratio of the incident light now to that in the history, per colour channel, as
+  // G * (m c) / G * (m h): c the current frame (demodulated, with its cross-view samples), h
+  // the reprojected history, m the pixels that have both, G a Gaussian of
+  // DenoiserParameters::relightingRadius pixels. Both sums run over the same pixels with the
+  // same weights, so the ratio is that of the two local means; one frame's noise averages out
+  // over the Gaussian's footprint (about 4 pi r^2 pixels), and the history's detail, which a
+  // new light changes much less than its brightness, is kept.
+  void computeRelightingRatio(EyeState& eye, const DenoiserParameters& p)
+  {
+    const int width = eye.width;
+    const int height = eye.height;
+    const std::size_t n = static_cast<std::size_t>(width) * height;
+    eye.relightingRatio.assign(n, glm::vec4(1.0f));
+    // The rows and columns the volume covers, padded by the Gaussian's reach.
+    int rowBegin = height, rowEnd = 0, columnBegin = width, columnEnd = 0;
+    for (int y = 0; y < height; ++y)
+    {
+      const RowSpan& span = eye.span[static_cast<std::size_t>(y)];
+      if (span.begin < span.end)
+      {
+        rowBegin = std::min(rowBegin, y);
+        rowEnd = y + 1;
+        columnBegin = std::min(columnBegin, span.begin);
+        columnEnd = std::max(columnEnd, span.end);
+      }
+    }
+    if (rowBegin >= rowEnd)
+    {
+      return;
+    }
+    const int reach = static_cast<int>(std::ceil(3.0f * p.relightingRadius));
+    const cv::Rect region(
+      cv::Point(std::max(columnBegin - reach, 0), std::max(rowBegin - reach, 0)),
+      cv::Point(std::min(columnEnd + reach, width), std::min(rowEnd + reach, height)));
+    // Planes: current RGB, history RGB, m; then, for the fine-scale test, the current
+    // luminance and its square, the history's RGB and m.
+    cv::Mat planes[7], fine[6];
+    for (cv::Mat& plane : planes)
+    {
+      plane = cv::Mat::zeros(region.height, region.width, CV_32F);
+    }
+    for (cv::Mat& plane : fine)
+    {
+      plane = cv::Mat::zeros(region.height, region.width, CV_32F);
+    }
+    this->forRows(1, region.height,
+      [&](int, int row)
+      {
+        const int y = region.y + row;
+        const RowSpan& span = eye.span[static_cast<std::size_t>(y)];
+        for (int x = span.begin; x < span.end; ++x)
+        {
+          const std::size_t i = static_cast<std::size_t>(y) * width + x;
+          if (eye.surface[i].kind == SurfaceNone)
+          {
+            continue;
+          }
+          const ReprojectedHistory reprojected =
+            reprojectHistory(eye, eye.surface[i], width, height, p);
+          if (!reprojected.valid)
+          {
+            continue;
+          }
+          const int column = x - region.x;
+          for (int c = 0; c < 3; ++c)
+          {
+            planes[c].at<float>(row, column) = eye.fused[i][c];
+            planes[3 + c].at<float>(row, column) = reprojected.value[c];
+          }
+          planes[6].at<float>(row, column) = 1.0f;
+          const float current = luminance(glm::vec3(eye.fused[i]));
+          fine[0].at<float>(row, column) = current;
+          fine[1].at<float>(row, column) = current * current;
+          for (int c = 0; c < 3; ++c)
+          {
+            fine[2 + c].at<float>(row, column) = reprojected.value[c];
+          }
+          fine[5].at<float>(row, column) = 1.0f;
+        }
+      });
+    const double sigma = p.relightingRadius;
+    for (cv::Mat& plane : planes)
+    {
+      cv::GaussianBlur(
+        plane, plane, cv::Size(2 * reach + 1, 2 * reach + 1), sigma, sigma, cv::BORDER_CONSTANT);
+    }
+    // The fine scale: a Gaussian of 1 pixel (5x5 taps), about 4 pi pixels' worth of samples.
+    constexpr double fineSigma = 1.0;
+    for (cv::Mat& plane : fine)
+    {
+      cv::GaussianBlur(plane, plane, cv::Size(5, 5), fineSigma, fineSigma, cv::BORDER_CONSTANT);
+    }
+    const float fineSamples = static_cast<float>(4.0 * glm::pi<double>() * fineSigma * fineSigma);
+    this->forRows(1, region.height,
+      [&](int, int row)
+      {
+        const int y = region.y + row;
+        const RowSpan& span = eye.span[static_cast<std::size_t>(y)];
+        for (int x = span.begin; x < span.end; ++x)
+        {
+          const int column = x - region.x;
+          if (planes[6].at<float>(row, column) < 1e-3f)
+          {
+            continue; // no pixel with a history nearby: nothing to relight
+          }
+          glm::vec4 ratio(1.0f);
+          for (int c = 0; c < 3; ++c)
+          {
+            const float old = planes[3 + c].at<float>(row, column);
+            const float now = planes[c].at<float>(row, column);
+            // A channel with (almost) no light in the history has no ratio to speak of.
+            ratio[c] = old > 1e-8f ? clampf(now / old, 1.0f / 64.0f, 64.0f) : 1.0f;
+          }
+          // Does the relit history agree with this frame at the fine scale? Both means over
+          // the same pixels, so texture and edges cancel; what differs beyond the current
+          // mean's noise is a change of light the coarse ratio cannot follow (a hard shadow
+          // that moved), and there the history is not trusted (A-SVGF rejects history where
+          // its temporal gradient is large in the same way).
+          const float weight = fine[5].at<float>(row, column);
+          if (weight > 1e-3f)
+          {
+            const float currentMean = fine[0].at<float>(row, column) / weight;
+            const float currentVariance =
+              glm::max(fine[1].at<float>(row, column) / weight - currentMean * currentMean, 0.0f);
+            const glm::vec3 historyMean(fine[2].at<float>(row, column),
+              fine[3].at<float>(row, column), fine[4].at<float>(row, column));
+            const float relitMean = luminance(glm::vec3(ratio) * historyMean) / weight;
+            const float standardError = std::sqrt(currentVariance / (weight * fineSamples));
+            const float z = std::abs(currentMean - relitMean) /
+              (standardError + 1e-3f * glm::max(currentMean, relitMean) + 1e-12f);
+            ratio.w = z > p.relitHistoryRejection ? 0.0f : 1.0f;
+          }
+          eye.relightingRatio[static_cast<std::size_t>(y) * width + x] = ratio;
         }
       });
   }
@@ -900,6 +1151,31 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
   // that guides the wavelet filter (a spatial estimate while the history is short).
   stageStart = Clock::now();
   const bool useHistory = p.temporalAccumulation;
+  // Where T says the light changed (delta < 1), the history is relit instead of only being
+  // dropped: with delta the chance that the light is the same, a history that is trusted
+  // (1 - delta) less would take many frames to climb back to its old quality.
+  // Below a 1 % chance of a change (T < 0.02 with the default sigmoid; sensor noise measured
+  // T = 0.014) the correction would be too small to matter, and the frame skips its cost.
+  const float maximumHistoryRadians = glm::radians(p.maximumHistoryAngle);
+  glm::vec3 eyeCentre[2], previousEyeCentre[2];
+  for (int e = 0; e < eyeCount; ++e)
+  {
+    eyeCentre[e] = glm::vec3(glm::inverse(impl.eyes[e].view)[3]);
+    previousEyeCentre[e] = glm::vec3(glm::inverse(impl.eyes[e].previousView)[3]);
+  }
+  const bool relight =
+    useHistory && p.exponentialAverageAlpha <= 0.0f && p.relightingRadius > 0.0f && gate < 0.99f;
+  if (relight)
+  {
+    for (int e = 0; e < eyeCount; ++e)
+    {
+      EyeState& eye = impl.eyes[e];
+      if (eye.hasPrevious)
+      {
+        impl.computeRelightingRatio(eye, p);
+      }
+    }
+  }
   impl.forSpans(eyeCount, height,
     [&](int e, int y, int begin, int end)
     {
@@ -952,49 +1228,31 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         info.luminanceSquareMean = rawLuminance * rawLuminance;
         info.sampleCount = currentWeight;
         info.frames = 1.0f;
-        glm::vec2 pixel;
-        float depth;
-        if (useHistory && eye.hasPrevious &&
-          projectToPixel(eye.previousViewProjection, eye.previousView, width, height,
-            glm::vec3(eye.toPreviousWorld * glm::vec4(s.firstScatterPosition, 1.0f)), pixel,
-            depth))
+        const ReprojectedHistory reprojected = useHistory && eye.hasPrevious
+          ? reprojectHistory(eye, s, width, height, p)
+          : ReprojectedHistory();
+        if (reprojected.valid)
         {
-          const BilinearTaps taps = bilinearTaps(pixel, width, height);
-          glm::vec4 history(0.0f);
-          HistoryInfo previous;
-          float weightSum = 0.0f;
-          float zeta = 0.0f;
-          float bestTap = -1.0f;
-          for (int t = 0; t < taps.count; ++t)
+          glm::vec4 history = reprojected.value;
+          HistoryInfo previous = reprojected.info;
+          const float zeta = reprojected.zeta;
+          float reuse = gate;
+          if (relight)
           {
-            const Surface& stored = eye.previousSurface[taps.index[t]];
-            if (!consistentSurface(stored, depth, s.normal, s.gradientMagnitude, s.depthSpread,
-                  p.depthTolerance, p.normalCosine))
-            {
-              continue;
-            }
-            const float w = taps.weight[t];
-            const HistoryInfo& h = eye.historyInfo[taps.index[t]];
-            history += w * eye.history[taps.index[t]];
-            previous.luminanceMean += w * h.luminanceMean;
-            previous.luminanceSquareMean += w * h.luminanceSquareMean;
-            previous.sampleCount += w * h.sampleCount;
-            previous.frames += w * h.frames;
-            weightSum += w;
-            if (w > bestTap)
-            {
-              bestTap = w;
-              zeta = bilateralWeight(asSeenFrom(s, depth), stored, p.temporal);
-            }
+            // With probability delta the light is the same and the history stays; otherwise
+            // it is relit, its colour scaled by the ratio of the current to the old light
+            // (computeRelightingRatio), and then trusted as a shorter history, since only its
+            // brightness was corrected.
+            const glm::vec4 relighting = eye.relightingRatio[i];
+            const glm::vec3 ratio = gate + (1.0f - gate) * glm::vec3(relighting);
+            const float oldLuminance = luminance(glm::vec3(history));
+            history = glm::vec4(glm::vec3(history) * ratio, history.w);
+            const float luminanceRatio =
+              oldLuminance > 1e-12f ? luminance(glm::vec3(history)) / oldLuminance : 1.0f;
+            previous.luminanceMean *= luminanceRatio;
+            previous.luminanceSquareMean *= luminanceRatio * luminanceRatio;
+            reuse = gate + (1.0f - gate) * p.relitHistoryReuse * relighting.w;
           }
-          if (weightSum > 0.05f)
-          {
-            const float inverse = 1.0f / weightSum;
-            history *= inverse;
-            previous.luminanceMean *= inverse;
-            previous.luminanceSquareMean *= inverse;
-            previous.sampleCount *= inverse;
-            previous.frames *= inverse;
             if (p.clampWidth > 0.0f)
             {
               const glm::vec4 deviation = glm::sqrt(glm::max(squareMean - mean * mean, 0.0f));
@@ -1010,18 +1268,33 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
             else
             {
               // (v + w_v N h) / (1 + w_v N) with the current frame's weight 1 per raw frame.
-              const float historyWeight = gate * zeta * previous.sampleCount;
+              const float historyWeight = reuse * zeta * previous.sampleCount;
               alpha = currentWeight / (currentWeight + historyWeight);
-              alpha = glm::max(alpha, 1.0f / static_cast<float>(glm::max(p.maximumHistoryLength, 1)));
+              // A moving view sees the point from a new direction every frame, and view-
+              // dependent light (the phase function, the specular lobe) changes with it: the
+              // history spans at most maximumHistoryAngle of viewing directions.
+              float longest = static_cast<float>(glm::max(p.maximumHistoryLength, 1));
+              if (p.maximumHistoryAngle > 0.0f)
+              {
+                const glm::vec3 previousPoint =
+                  glm::vec3(eye.toPreviousWorld * glm::vec4(s.firstScatterPosition, 1.0f));
+                // The chord between unit directions is the angle within 1 % below 14 degrees.
+                const float turned =
+                  glm::length(glm::normalize(eyeCentre[e] - s.firstScatterPosition) -
+                    glm::normalize(previousEyeCentre[e] - previousPoint));
+                if (turned * longest > maximumHistoryRadians)
+                {
+                  longest = glm::max(maximumHistoryRadians / turned, 1.0f);
+                }
+              }
+              alpha = glm::max(alpha, 1.0f / longest);
               info.sampleCount = currentWeight / alpha;
-              info.frames = glm::min(1.0f + gate * zeta * previous.frames,
-                static_cast<float>(p.maximumHistoryLength));
+              info.frames = glm::min(1.0f + reuse * zeta * previous.frames, longest);
             }
             blended = glm::mix(history, current, alpha);
             info.luminanceMean = glm::mix(previous.luminanceMean, rawLuminance, alpha);
             info.luminanceSquareMean =
               glm::mix(previous.luminanceSquareMean, rawLuminance * rawLuminance, alpha);
-          }
         }
         // Variance of one raw frame's luminance: temporal once four frames exist (SVGF), the
         // neighbourhood's before; the filtered value averages sampleCount such frames.

@@ -85,6 +85,24 @@ class DenoiserPipelineTest(unittest.TestCase):
                               .GetArray("MeanHistoryLength"))
         self.assertGreater(denoiser.GetLastFrameMilliseconds(), 0.0)
 
+        # A new frame for which T says the light changed. Relit (the default), the history is
+        # kept; with relighting off (re-denoising the same frame), the paper's w_v drops it.
+        self.assertEqual(denoiser.GetRelightingRadius(), 4.0)
+        self.assertEqual(denoiser.GetRelitHistoryReuse(), 1.0)
+        self.assertEqual(denoiser.GetMaximumHistoryAngle(), 6.0)
+        self.assertFalse(denoiser.GetBicubicHistory())
+        self.assertEqual(mapper.RenderStereoFrame(volume, left[0], left[1], right[0],
+                                                  right[1], 40, 40), 1)
+        denoiser.SetIlluminationDifference(0.5)
+        denoiser.Update()
+        fields = denoiser.GetEyeOutput(0).GetFieldData()
+        self.assertLess(fields.GetArray("TemporalWeight").GetValue(0), 0.01)
+        self.assertGreater(fields.GetArray("MeanHistoryLength").GetValue(0), 1.5)
+        denoiser.SetRelightingRadius(0.0)
+        denoiser.Update()
+        fields = denoiser.GetEyeOutput(0).GetFieldData()
+        self.assertLess(fields.GetArray("MeanHistoryLength").GetValue(0), 1.1)
+
         mapper.SetDenoiser(denoiser)
         self.assertIs(mapper.GetDenoiser(), denoiser)
         mapper.SetDenoiser(None)

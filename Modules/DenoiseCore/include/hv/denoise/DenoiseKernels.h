@@ -99,6 +99,19 @@ HV_FUNCTION float bilateralWeight(const Surface& a, const Surface& b, const Edge
 // in that view must match the stored depth, within the relative tolerance plus twice the
 // depth slack (the stochastic first-scatter depth inside translucent material),
 // and where both have a gradient the normals must agree. A failure is a disocclusion.
+// Catmull-Rom weights of the taps at -1, 0, 1, 2 for a sample at t in [0, 1) past tap 0. The
+// cubic interpolates (t = 0 gives tap 0 alone) and reproduces linear ramps; its negative lobes
+// keep the detail that a bilinear fetch would blur at every reprojection of a moving view.
+HV_FUNCTION void catmullRomWeights(float t, float weights[4])
+{
+  const float t2 = t * t;
+  const float t3 = t2 * t;
+  weights[0] = -0.5f * t3 + t2 - 0.5f * t;
+  weights[1] = 1.5f * t3 - 2.5f * t2 + 1.0f;
+  weights[2] = -1.5f * t3 + 2.0f * t2 + 0.5f * t;
+  weights[3] = 0.5f * t3 - 0.5f * t2;
+}
+
 HV_FUNCTION bool consistentSurface(const Surface& stored, float reprojectedDepth,
   const glm::vec3& normal, float gradientMagnitude, float depthSpread, float depthTolerance,
   float normalCosine)
