@@ -149,8 +149,8 @@ std::vector<std::pair<vtkIdType, vtkIdType>> CorrespondingPixels(
   int dims[3];
   leftEye->GetDimensions(dims);
   const glm::mat4 leftView = FieldMatrix(leftEye, "ViewMatrix");
-  const glm::mat4 inverseLeftProjection = glm::inverse(FieldMatrix(leftEye, "ProjectionMatrix"));
-  const glm::mat4 inverseLeftView = glm::inverse(leftView);
+  const glm::mat4 inverseLeftViewProjection =
+    glm::inverse(FieldMatrix(leftEye, "ProjectionMatrix") * leftView);
   const glm::mat4 view = FieldMatrix(rightEye, "ViewMatrix");
   const glm::mat4 viewProjection = FieldMatrix(rightEye, "ProjectionMatrix") * view;
   std::vector<std::pair<vtkIdType, vtkIdType>> pairs;
@@ -163,15 +163,12 @@ std::vector<std::pair<vtkIdType, vtkIdType>> CorrespondingPixels(
       {
         continue;
       }
-      const glm::vec4 ndc(
-        2.0f * (x + 0.5f) / dims[0] - 1.0f, 2.0f * (y + 0.5f) / dims[1] - 1.0f, 1.0f, 1.0f);
-      glm::vec4 direction = inverseLeftProjection * ndc;
-      const glm::vec3 ray = glm::vec3(direction) / direction.w;
-      const glm::vec3 eyePoint = ray * (meanDepth[0][i] / -ray.z);
-      const glm::vec3 world = glm::vec3(inverseLeftView * glm::vec4(eyePoint, 1.0f));
+      glm::vec3 world;
       glm::vec2 pixel;
       float depth;
-      if (!hv::denoise::projectToPixel(viewProjection, view, dims[0], dims[1], world, pixel, depth))
+      if (!hv::denoise::pointOnPixelRay(
+            inverseLeftViewProjection, leftView, x, y, dims[0], dims[1], meanDepth[0][i], world) ||
+        !hv::denoise::projectToPixel(viewProjection, view, dims[0], dims[1], world, pixel, depth))
       {
         continue;
       }

@@ -56,6 +56,30 @@ TEST(DenoiseKernels, ReprojectionFollowsCameraTranslation)
   EXPECT_FALSE(projectToPixel(projection * before, before, width, height, glm::vec3(20, 0, 0), pixel, depth));
 }
 
+// pointOnPixelRay inverts projectToPixel: the point at a given view depth on a pixel-centre ray
+// projects back to that pixel's centre at that depth.
+TEST(DenoiseKernels, PointOnPixelRayInvertsProjection)
+{
+  const int width = 200, height = 100;
+  const glm::mat4 projection = glm::perspective(glm::radians(60.0f), 2.0f, 0.1f, 100.0f);
+  const glm::mat4 view = glm::lookAt(glm::vec3(1, 2, 5), glm::vec3(0, 0, 0), glm::vec3(0, 1, 0));
+  const glm::mat4 inverse = glm::inverse(projection * view);
+  for (const glm::ivec2 pixel : { glm::ivec2(0, 0), glm::ivec2(37, 81), glm::ivec2(199, 99) })
+  {
+    for (float viewDepth : { 0.5f, 4.0f, 30.0f })
+    {
+      glm::vec3 point;
+      ASSERT_TRUE(
+        pointOnPixelRay(inverse, view, pixel.x, pixel.y, width, height, viewDepth, point));
+      float depth;
+      const glm::vec2 back = expectProject(view, projection, width, height, point, &depth);
+      EXPECT_NEAR(back.x, pixel.x + 0.5f, 2e-3f);
+      EXPECT_NEAR(back.y, pixel.y + 0.5f, 2e-3f);
+      EXPECT_NEAR(depth, viewDepth, 1e-4f * viewDepth);
+    }
+  }
+}
+
 // Left <-> right: with parallel eyes and off-axis frusta converging at distance D, a point on
 // the focal plane has zero disparity, and a point at depth z has the disparity
 // 0.5 W ipd (1/z - 1/D) / (tan(theta) aspect). Eq. 2's chain L(t) -> R(t) through the first

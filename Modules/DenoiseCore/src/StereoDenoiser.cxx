@@ -105,6 +105,16 @@ struct GuidePlanes
   }
 };
 
+// A pixel's history fetched from the previous frame (bilinear over the taps whose surface is
+// the same point), with its statistics and zeta of the best-weighted tap.
+struct ReprojectedHistory
+{
+  glm::vec4 value = glm::vec4(0.0f);
+  HistoryInfo info;
+  float zeta = 0.0f;
+  bool valid = false;
+};
+
 struct EyeState
 {
   int width = 0;
@@ -140,9 +150,11 @@ struct EyeState
   std::vector<RowSpan> guideSpan;     // where guide.valid was last set
   std::vector<float> variance[2];     // variance of the filtered luminance
   std::vector<glm::vec4> firstStep;   // D1 output, re-modulated
-  // New over old incident light (RGB) where T says it changed, and whether the relit history
-  // agrees with the frame at the fine scale (w, 1 or 0).
+  // Where T says the light changed: new over old incident light (RGB) and whether the relit
+  // history agrees with the frame at the fine scale (w, 1 or 0), and the reprojected history
+  // that the ratio was computed from, for the blending that follows. Written over the spans.
   std::vector<glm::vec4> relightingRatio;
+  std::vector<ReprojectedHistory> relitHistory;
 
   // This frame becomes the previous one; the buffers it replaces are kept for undoCommit().
   void commit()
@@ -207,6 +219,7 @@ struct EyeState
     }
     this->firstStep.assign(n, glm::vec4(0.0f));
     this->relightingRatio.clear(); // sized on first use: most scenes never relight
+    this->relitHistory.clear();
   }
 };
 
@@ -262,16 +275,6 @@ Surface asSeenFrom(const Surface& surface, float viewDepth)
   seen.depth = viewDepth;
   return seen;
 }
-
-// A pixel's history fetched from the previous frame (bilinear over the taps whose surface is
-// the same point), with its statistics and zeta of the best-weighted tap.
-struct ReprojectedHistory
-{
-  glm::vec4 value = glm::vec4(0.0f);
-  HistoryInfo info;
-  float zeta = 0.0f;
-  bool valid = false;
-};
 
 // The history's colour by a Catmull-Rom fetch over the 4x4 taps around `pixel`, where all of
 // them see the same surface; clamped to the range of the four bilinear taps so that the
@@ -594,7 +597,8 @@ struct StereoDenoiser::Internals
     const int width = eye.width;
     const int height = eye.height;
     const std::size_t n = static_cast<std::size_t>(width) * height;
-    eye.relightingRatio.assign(n, glm::vec4(1.0f));
+    eye.relightingRatio.resize(n);
+    eye.relitHistory.resize(n);
     // The rows and columns the volume covers, padded by the Gaussian's reach.
     int rowBegin = height, rowEnd = 0, columnBegin = width, columnEnd = 0;
     for (int y = 0; y < height; ++y)
@@ -616,14 +620,19 @@ struct StereoDenoiser::Internals
     const cv::Rect region(
       cv::Point(std::max(columnBegin - reach, 0), std::max(rowBegin - reach, 0)),
       cv::Point(std::min(columnEnd + reach, width), std::min(rowEnd + reach, height)));
-    // Planes: current RGB, history RGB, m; then, for the fine-scale test, the current
-    // luminance and its square, the history's RGB and m.
-    cv::Mat planes[7], fine[6];
-    for (cv::Mat& plane : planes)
+    // Planes: current RGB, history RGB, m, and the current luminance and its square (for the
+    // fine-scale test's variance).
+    enum
     {
-      plane = cv::Mat::zeros(region.height, region.width, CV_32F);
-    }
-    for (cv::Mat& plane : fine)
+      CurrentRed = 0,
+      HistoryRed = 3,
+      Mask = 6,
+      CurrentLuminance = 7,
+      CurrentLuminanceSquare = 8,
+      PlaneCount = 9
+    };
+    cv::Mat planes[PlaneCount];
+    for (cv::Mat& plane : planes)
     {
       plane = cv::Mat::zeros(region.height, region.width, CV_32F);
     }
@@ -639,7 +648,7 @@ struct StereoDenoiser::Internals
           {
             continue;
           }
-          const ReprojectedHistory reprojected =
+          const ReprojectedHistory& reprojected = eye.relitHistory[i] =
             reprojectHistory(eye, eye.surface[i], width, height, p);
           if (!reprojected.valid)
           {
@@ -648,31 +657,33 @@ struct StereoDenoiser::Internals
           const int column = x - region.x;
           for (int c = 0; c < 3; ++c)
           {
-            planes[c].at<float>(row, column) = eye.fused[i][c];
-            planes[3 + c].at<float>(row, column) = reprojected.value[c];
+            planes[CurrentRed + c].at<float>(row, column) = eye.fused[i][c];
+            planes[HistoryRed + c].at<float>(row, column) = reprojected.value[c];
           }
-          planes[6].at<float>(row, column) = 1.0f;
+          planes[Mask].at<float>(row, column) = 1.0f;
           const float current = luminance(glm::vec3(eye.fused[i]));
-          fine[0].at<float>(row, column) = current;
-          fine[1].at<float>(row, column) = current * current;
-          for (int c = 0; c < 3; ++c)
-          {
-            fine[2 + c].at<float>(row, column) = reprojected.value[c];
-          }
-          fine[5].at<float>(row, column) = 1.0f;
+          planes[CurrentLuminance].at<float>(row, column) = current;
+          planes[CurrentLuminanceSquare].at<float>(row, column) = current * current;
         }
       });
+    // The coarse scale (the ratio) over current RGB, history RGB and m; the fine scale, a
+    // Gaussian of 1 pixel (5x5 taps, about 4 pi pixels' worth of samples), over history RGB,
+    // m and the current luminance and its square.
     const double sigma = p.relightingRadius;
-    for (cv::Mat& plane : planes)
-    {
-      cv::GaussianBlur(
-        plane, plane, cv::Size(2 * reach + 1, 2 * reach + 1), sigma, sigma, cv::BORDER_CONSTANT);
-    }
-    // The fine scale: a Gaussian of 1 pixel (5x5 taps), about 4 pi pixels' worth of samples.
     constexpr double fineSigma = 1.0;
-    for (cv::Mat& plane : fine)
+    cv::Mat coarse[PlaneCount], fine[PlaneCount];
+    for (int k = 0; k < PlaneCount; ++k)
     {
-      cv::GaussianBlur(plane, plane, cv::Size(5, 5), fineSigma, fineSigma, cv::BORDER_CONSTANT);
+      if (k < CurrentLuminance)
+      {
+        cv::GaussianBlur(planes[k], coarse[k], cv::Size(2 * reach + 1, 2 * reach + 1), sigma, sigma,
+          cv::BORDER_CONSTANT);
+      }
+      if (k >= HistoryRed)
+      {
+        cv::GaussianBlur(
+          planes[k], fine[k], cv::Size(5, 5), fineSigma, fineSigma, cv::BORDER_CONSTANT);
+      }
     }
     const float fineSamples = static_cast<float>(4.0 * glm::pi<double>() * fineSigma * fineSigma);
     this->forRows(1, region.height,
@@ -683,15 +694,16 @@ struct StereoDenoiser::Internals
         for (int x = span.begin; x < span.end; ++x)
         {
           const int column = x - region.x;
-          if (planes[6].at<float>(row, column) < 1e-3f)
+          glm::vec4& ratio = eye.relightingRatio[static_cast<std::size_t>(y) * width + x];
+          ratio = glm::vec4(1.0f);
+          if (coarse[Mask].at<float>(row, column) < 1e-3f)
           {
             continue; // no pixel with a history nearby: nothing to relight
           }
-          glm::vec4 ratio(1.0f);
           for (int c = 0; c < 3; ++c)
           {
-            const float old = planes[3 + c].at<float>(row, column);
-            const float now = planes[c].at<float>(row, column);
+            const float old = coarse[HistoryRed + c].at<float>(row, column);
+            const float now = coarse[CurrentRed + c].at<float>(row, column);
             // A channel with (almost) no light in the history has no ratio to speak of.
             ratio[c] = old > 1e-8f ? clampf(now / old, 1.0f / 64.0f, 64.0f) : 1.0f;
           }
@@ -700,21 +712,23 @@ struct StereoDenoiser::Internals
           // mean's noise is a change of light the coarse ratio cannot follow (a hard shadow
           // that moved), and there the history is not trusted (A-SVGF rejects history where
           // its temporal gradient is large in the same way).
-          const float weight = fine[5].at<float>(row, column);
+          const float weight = fine[Mask].at<float>(row, column);
           if (weight > 1e-3f)
           {
-            const float currentMean = fine[0].at<float>(row, column) / weight;
+            const float currentMean = fine[CurrentLuminance].at<float>(row, column) / weight;
             const float currentVariance =
-              glm::max(fine[1].at<float>(row, column) / weight - currentMean * currentMean, 0.0f);
-            const glm::vec3 historyMean(fine[2].at<float>(row, column),
-              fine[3].at<float>(row, column), fine[4].at<float>(row, column));
+              glm::max(fine[CurrentLuminanceSquare].at<float>(row, column) / weight -
+                  currentMean * currentMean,
+                0.0f);
+            const glm::vec3 historyMean(fine[HistoryRed].at<float>(row, column),
+              fine[HistoryRed + 1].at<float>(row, column),
+              fine[HistoryRed + 2].at<float>(row, column));
             const float relitMean = luminance(glm::vec3(ratio) * historyMean) / weight;
             const float standardError = std::sqrt(currentVariance / (weight * fineSamples));
             const float z = std::abs(currentMean - relitMean) /
               (standardError + 1e-3f * glm::max(currentMean, relitMean) + 1e-12f);
             ratio.w = z > p.relitHistoryRejection ? 0.0f : 1.0f;
           }
-          eye.relightingRatio[static_cast<std::size_t>(y) * width + x] = ratio;
         }
       });
   }
@@ -1018,7 +1032,6 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
     {
       EyeState& eye = impl.eyes[e];
       const glm::mat4& inverse = inverseViewProjection[e];
-      const glm::vec4 viewRow(eye.view[0][2], eye.view[1][2], eye.view[2][2], eye.view[3][2]);
       const RowSpan& span = eye.span[static_cast<std::size_t>(y)];
       RowSpan& guideSpan = eye.guideSpan[static_cast<std::size_t>(y)];
       for (int x = guideSpan.begin; x < guideSpan.end; ++x)
@@ -1035,22 +1048,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           eye.guide.valid[i] = 0.0f;
           continue;
         }
-        {
-          const float ndcX = 2.0f * (static_cast<float>(x) + 0.5f) / static_cast<float>(width) - 1.0f;
-          const float ndcY = 2.0f * (static_cast<float>(y) + 0.5f) / static_cast<float>(height) - 1.0f;
-          const glm::vec4 nearClip = inverse * glm::vec4(ndcX, ndcY, -1.0f, 1.0f);
-          const glm::vec4 farClip = inverse * glm::vec4(ndcX, ndcY, 1.0f, 1.0f);
-          const glm::vec3 nearPoint = glm::vec3(nearClip) / nearClip.w;
-          const glm::vec3 farPoint = glm::vec3(farClip) / farClip.w;
-          // The view depth is affine along the segment: solve for the stored depth.
-          const float nearDepth = -glm::dot(viewRow, glm::vec4(nearPoint, 1.0f));
-          const float farDepth = -glm::dot(viewRow, glm::vec4(farPoint, 1.0f));
-          if (std::abs(farDepth - nearDepth) > 1e-12f)
-          {
-            const float t = (s.depth - nearDepth) / (farDepth - nearDepth);
-            s.firstScatterPosition = nearPoint + t * (farPoint - nearPoint);
-          }
-        }
+        pointOnPixelRay(inverse, eye.view, x, y, width, height, s.depth, s.firstScatterPosition);
         float sum = 0.0f, squareSum = 0.0f;
         int count = 0;
         forStencilTaps(x, y, width, height, 1,
@@ -1151,11 +1149,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
   // that guides the wavelet filter (a spatial estimate while the history is short).
   stageStart = Clock::now();
   const bool useHistory = p.temporalAccumulation;
-  // Where T says the light changed (delta < 1), the history is relit instead of only being
-  // dropped: with delta the chance that the light is the same, a history that is trusted
-  // (1 - delta) less would take many frames to climb back to its old quality.
-  // Below a 1 % chance of a change (T < 0.02 with the default sigmoid; sensor noise measured
-  // T = 0.014) the correction would be too small to matter, and the frame skips its cost.
+  // The eye centres, for the history's arc of viewing directions.
   const float maximumHistoryRadians = glm::radians(p.maximumHistoryAngle);
   glm::vec3 eyeCentre[2], previousEyeCentre[2];
   for (int e = 0; e < eyeCount; ++e)
@@ -1163,6 +1157,11 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
     eyeCentre[e] = glm::vec3(glm::inverse(impl.eyes[e].view)[3]);
     previousEyeCentre[e] = glm::vec3(glm::inverse(impl.eyes[e].previousView)[3]);
   }
+  // Where T says the light changed (delta < 1), the history is relit instead of only being
+  // dropped: with delta the chance that the light is the same, a history that is trusted
+  // (1 - delta) less would take many frames to climb back to its old quality.
+  // Below a 1 % chance of a change (T < 0.02 with the default sigmoid; sensor noise measured
+  // T = 0.014) the correction would be too small to matter, and the frame skips its cost.
   const bool relight =
     useHistory && p.exponentialAverageAlpha <= 0.0f && p.relightingRadius > 0.0f && gate < 0.99f;
   if (relight)
@@ -1228,9 +1227,11 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         info.luminanceSquareMean = rawLuminance * rawLuminance;
         info.sampleCount = currentWeight;
         info.frames = 1.0f;
-        const ReprojectedHistory reprojected = useHistory && eye.hasPrevious
-          ? reprojectHistory(eye, s, width, height, p)
-          : ReprojectedHistory();
+        // A relit frame reprojected the history already, for the ratio.
+        const ReprojectedHistory reprojected = !(useHistory && eye.hasPrevious)
+          ? ReprojectedHistory()
+          : relight ? eye.relitHistory[i]
+                    : reprojectHistory(eye, s, width, height, p);
         if (reprojected.valid)
         {
           glm::vec4 history = reprojected.value;

@@ -228,7 +228,8 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
       }
     }
     // ... and the environment, importance-sampled, MIS-weighted against the phase/BRDF. The
-    // texel is only read, prefetched while the shadow ray is traced, for rays that get through.
+    // texel is prefetched, and read, only for rays that survive the roulette; the prefetch runs
+    // while the shadow ray is traced.
     {
       float lightPdf;
       glm::vec2 uv;
@@ -236,7 +237,6 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
       const float u2 = rng.nextFloat();
       const glm::vec3 toLight =
         scene.environment.sampleDirection(u1, u2, rng.nextFloat(), lightPdf, uv);
-      scene.environment.prefetch(uv);
       const float density =
         scatterDensity(surfaceEvent, normal, direction, toLight, scene.anisotropy);
       if (lightPdf > 0.0f && density > 0.0f)
@@ -245,6 +245,7 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
         const float survival = secondaryRaySurvival(scene, 4.0f * Pi * lightPdf * weight);
         if (survivesRoulette(survival, rng))
         {
+          scene.environment.prefetch(uv);
           const float transmittance = transmittanceTowards(scene, position, toLight, Infinity, rng);
           if (transmittance > 0.0f)
           {
@@ -278,17 +279,19 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
       // The last continuation adds the environment it reaches, weighted against light
       // sampling, or nothing if it meets the medium again: the same roulette as a shadow ray.
       const glm::vec2 uv = scene.environment.mapCoordinates(next);
-      scene.environment.prefetch(uv);
       const float lightPdf = scene.environment.pdfAt(uv);
       const float weight = powerHeuristic(previousDirectionalPdf, lightPdf);
       const float survival = secondaryRaySurvival(scene, 4.0f * Pi * lightPdf * weight);
-      IndexRay escape;
-      float tUnused;
-      if (weight > 0.0f && survivesRoulette(survival, rng) &&
-        !(makeIndexRay(volume, scene.clipping, position, next, RayEpsilon, Infinity, escape) &&
-          sampleFreeFlight(volume, escape, rng, tUnused)))
+      if (weight > 0.0f && survivesRoulette(survival, rng))
       {
-        radiance += throughput * scene.environment.radianceAt(uv) * (weight / survival);
+        scene.environment.prefetch(uv); // read only if the ray escapes
+        IndexRay escape;
+        float tUnused;
+        if (!(makeIndexRay(volume, scene.clipping, position, next, RayEpsilon, Infinity, escape) &&
+              sampleFreeFlight(volume, escape, rng, tUnused)))
+        {
+          radiance += throughput * scene.environment.radianceAt(uv) * (weight / survival);
+        }
       }
       break;
     }

@@ -77,6 +77,31 @@ HV_FUNCTION bool projectToPixel(const glm::mat4& viewProjection, const glm::mat4
     pixel.y < static_cast<float>(height);
 }
 
+// The point at view depth `viewDepth` on the ray through the centre of pixel (x, y) (row 0 at
+// the bottom): the inverse of projectToPixel. The view depth is affine along the segment from
+// the near to the far clip point, so it is solved for there. Leaves `point` as it is and returns
+// false for a degenerate projection.
+HV_FUNCTION bool pointOnPixelRay(const glm::mat4& inverseViewProjection, const glm::mat4& view,
+  int x, int y, int width, int height, float viewDepth, glm::vec3& point)
+{
+  const float ndcX = 2.0f * (static_cast<float>(x) + 0.5f) / static_cast<float>(width) - 1.0f;
+  const float ndcY = 2.0f * (static_cast<float>(y) + 0.5f) / static_cast<float>(height) - 1.0f;
+  const glm::vec4 nearClip = inverseViewProjection * glm::vec4(ndcX, ndcY, -1.0f, 1.0f);
+  const glm::vec4 farClip = inverseViewProjection * glm::vec4(ndcX, ndcY, 1.0f, 1.0f);
+  const glm::vec3 nearPoint = glm::vec3(nearClip) / nearClip.w;
+  const glm::vec3 farPoint = glm::vec3(farClip) / farClip.w;
+  const glm::vec4 viewRow(view[0][2], view[1][2], view[2][2], view[3][2]);
+  const float nearDepth = -glm::dot(viewRow, glm::vec4(nearPoint, 1.0f));
+  const float farDepth = -glm::dot(viewRow, glm::vec4(farPoint, 1.0f));
+  if (!(glm::abs(farDepth - nearDepth) > 1e-12f))
+  {
+    return false;
+  }
+  const float t = (viewDepth - nearDepth) / (farDepth - nearDepth);
+  point = nearPoint + t * (farPoint - nearPoint);
+  return true;
+}
+
 // zeta: the bilateral weight between the surfaces seen by two pixels (the paper weights by
 // the albedo, the gradient at x and the z-depth of x). The normal term only counts where both
 // points have a gradient: inside homogeneous material the gradient direction is noise.
