@@ -390,6 +390,8 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.maximumHistoryAngle = static_cast<float>(this->MaximumHistoryAngle);
   p.exponentialAverageAlpha = static_cast<float>(this->ExponentialAverageAlpha);
   p.depthTolerance = static_cast<float>(this->DepthTolerance);
+  p.surfaceJitterTolerance = static_cast<float>(this->SurfaceJitterTolerance);
+  p.normalTestGradient = static_cast<float>(this->NormalTestGradient);
   p.normalCosine = static_cast<float>(this->NormalTolerance);
   p.clampWidth = static_cast<float>(this->ClampWidth);
   p.waveletLevels = this->WaveletLevels;
@@ -470,6 +472,8 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "MaximumHistoryAngle: " << this->MaximumHistoryAngle << "\n";
   os << indent << "ExponentialAverageAlpha: " << this->ExponentialAverageAlpha << "\n";
   os << indent << "DepthTolerance: " << this->DepthTolerance << "\n";
+  os << indent << "SurfaceJitterTolerance: " << this->SurfaceJitterTolerance << "\n";
+  os << indent << "NormalTestGradient: " << this->NormalTestGradient << "\n";
   os << indent << "NormalTolerance: " << this->NormalTolerance << "\n";
   os << indent << "ClampWidth: " << this->ClampWidth << "\n";
   os << indent << "WaveletLevels: " << this->WaveletLevels << "\n";

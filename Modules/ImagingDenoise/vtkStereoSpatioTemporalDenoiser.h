@@ -212,11 +212,22 @@ public:
   ///@{
   /**
    * Disocclusion: a reprojected pixel is used only if its stored depth is within
-   * DepthTolerance (relative, default 0.03) of the reprojected point's and, where both have a
-   * gradient, the normals' cosine exceeds NormalTolerance (default 0.5).
+   * DepthTolerance (relative, default 0.03) of the reprojected point's, plus the depth spread
+   * of translucent material, plus SurfaceJitterTolerance (default 3) times the RMS difference
+   * between consecutive frames' first scatter depths that the stored pixel's history has seen,
+   * and, where both gradient magnitudes exceed NormalTestGradient (default 0.3), the normals'
+   * cosine exceeds NormalTolerance (default 0.5) or what the stored pixel's history has seen
+   * (the same multiple of its RMS 1 - cosine). Inside translucent tissue the scatter point, and
+   * so its depth and the gradient's direction, is random each frame: the jitter term and the
+   * gradient threshold keep a still view's history there (SurfaceJitterTolerance 0 switches
+   * the jitter term off).
    */
   vtkSetClampMacro(DepthTolerance, double, 0.0, 10.0);
   vtkGetMacro(DepthTolerance, double);
+  vtkSetClampMacro(SurfaceJitterTolerance, double, 0.0, 100.0);
+  vtkGetMacro(SurfaceJitterTolerance, double);
+  vtkSetClampMacro(NormalTestGradient, double, 0.0, 1.0);
+  vtkGetMacro(NormalTestGradient, double);
   vtkSetClampMacro(NormalTolerance, double, -1.0, 1.0);
   vtkGetMacro(NormalTolerance, double);
   ///@}
@@ -320,6 +331,8 @@ protected:
   int MaximumHistoryLength = 32;
   double ExponentialAverageAlpha = 0.0;
   double DepthTolerance = 0.03;
+  double SurfaceJitterTolerance = 3.0;
+  double NormalTestGradient = 0.3;
   double NormalTolerance = 0.5;
   double ClampWidth = 2.0;
   int WaveletLevels = 4;

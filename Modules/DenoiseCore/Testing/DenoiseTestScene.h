@@ -11,6 +11,7 @@
 
 #include "hv/denoise/StereoDenoiser.h"
 
+#include <glm/gtc/constants.hpp>
 #include <glm/gtc/matrix_transform.hpp>
 
 #include <cmath>
@@ -57,6 +58,13 @@ struct SceneState
   // light's direction), where the wall gets shadowLevel of its light; none when shadowLevel = 1.
   glm::vec2 shadowShift{ 0.0f, 0.0f };
   float shadowLevel = 1.0f;
+  // A translucent wall: its first scatter point lies at a random depth, uniform within
+  // +- wallDepthJitter along the ray, and its normal is tilted at random by up to
+  // wallNormalJitter radians, anew every frame, as a volume's scatter points are; the wall's
+  // gradient magnitude is wallGradient. The expected radiance does not change.
+  float wallDepthJitter = 0.0f;
+  float wallNormalJitter = 0.0f;
+  float wallGradient = 1.0f;
   glm::vec3 cameraPosition{ 0.0f, 0.0f, 8.0f }; // between the eyes, looking at -z
   float interpupillaryDistance = 0.3f;
   float focalDistance = 8.0f;
@@ -147,6 +155,18 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
         continue;
       }
       radiance *= scene.irradianceScale + scene.sideLight * (0.5f + hit.x / 6.0f);
+      glm::vec3 normal(0.0f, 0.0f, 1.0f);
+      float gradient = 1.0f;
+      if (hit.z == 0.0f && (scene.wallDepthJitter > 0.0f || scene.wallNormalJitter > 0.0f))
+      {
+        std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+        hit += scene.wallDepthJitter * uniform(rng) * direction;
+        const float tilt = scene.wallNormalJitter * 0.5f * (uniform(rng) + 1.0f);
+        const float azimuth = glm::pi<float>() * uniform(rng);
+        normal = glm::vec3(
+          std::sin(tilt) * std::cos(azimuth), std::sin(tilt) * std::sin(azimuth), std::cos(tilt));
+        gradient = scene.wallGradient;
+      }
       out.valid[i] = 1;
       for (int c = 0; c < 3; ++c)
       {
@@ -157,8 +177,11 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
       }
       out.reference[4 * i + 3] = 1.0f;
       out.radiance[4 * i + 3] = 1.0f;
-      out.normal[3 * i + 2] = 1.0f;
-      out.gradient[i] = 1.0f;
+      for (int c = 0; c < 3; ++c)
+      {
+        out.normal[3 * i + c] = normal[c];
+      }
+      out.gradient[i] = gradient;
       out.depth[i] = -(out.view * glm::vec4(hit, 1.0f)).z;
     }
   }

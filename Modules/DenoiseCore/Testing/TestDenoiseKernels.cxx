@@ -223,21 +223,39 @@ TEST(DenoiseKernels, BilateralWeightAndDisocclusion)
   EXPECT_NEAR(bilateralWeight(a, tinted, edges), std::exp(-0.04f / 0.02f), 1e-5f);
 
   // Disocclusion: an occluder 10 % nearer, a background pixel, or a turned surface.
-  EXPECT_TRUE(consistentSurface(a, 5.05f, a.normal, 1.0f, 0.0f, 0.03f, 0.5f));
-  EXPECT_FALSE(consistentSurface(a, 5.5f, a.normal, 1.0f, 0.0f, 0.03f, 0.5f));
+  EXPECT_TRUE(consistentSurface(a, 5.05f, a.normal, 1.0f, 0.0f, 0.03f, 0.5f, 0.1f));
+  EXPECT_FALSE(consistentSurface(a, 5.5f, a.normal, 1.0f, 0.0f, 0.03f, 0.5f, 0.1f));
   Surface none;
-  EXPECT_FALSE(consistentSurface(none, 5.0f, a.normal, 1.0f, 0.0f, 0.03f, 0.5f));
-  EXPECT_FALSE(consistentSurface(a, 5.0f, glm::vec3(0, 1, 0), 1.0f, 0.0f, 0.03f, 0.5f));
-  EXPECT_TRUE(consistentSurface(a, 5.0f, glm::vec3(0, 1, 0), 0.0f, 0.0f, 0.03f, 0.5f));
+  EXPECT_FALSE(consistentSurface(none, 5.0f, a.normal, 1.0f, 0.0f, 0.03f, 0.5f, 0.1f));
+  EXPECT_FALSE(consistentSurface(a, 5.0f, glm::vec3(0, 1, 0), 1.0f, 0.0f, 0.03f, 0.5f, 0.1f));
+  EXPECT_TRUE(consistentSurface(a, 5.0f, glm::vec3(0, 1, 0), 0.0f, 0.0f, 0.03f, 0.5f, 0.1f));
   // Inside translucent material (no gradient) the first scatter depth is random: a depth
   // spread of 0.3 on both sides accepts the 0.5 difference, a spread on one side only does not.
   Surface translucent = a;
   translucent.depthSpread = 0.3f;
   translucent.gradientMagnitude = 0.0f;
-  EXPECT_TRUE(consistentSurface(translucent, 5.5f, a.normal, 0.0f, 0.3f, 0.03f, 0.5f));
-  EXPECT_FALSE(consistentSurface(translucent, 5.5f, a.normal, 0.0f, 0.0f, 0.03f, 0.5f));
+  EXPECT_TRUE(consistentSurface(translucent, 5.5f, a.normal, 0.0f, 0.3f, 0.03f, 0.5f, 0.1f));
+  EXPECT_FALSE(consistentSurface(translucent, 5.5f, a.normal, 0.0f, 0.0f, 0.03f, 0.5f, 0.1f));
   // On a surface (strong gradient) the spread is geometry, a silhouette: no slack.
-  EXPECT_FALSE(consistentSurface(translucent, 5.5f, a.normal, 1.0f, 0.3f, 0.03f, 0.5f));
+  EXPECT_FALSE(consistentSurface(translucent, 5.5f, a.normal, 1.0f, 0.3f, 0.03f, 0.5f, 0.1f));
+  // ... unless the stored pixel's history has seen its depth move that much by chance.
+  Surface jittering = a;
+  jittering.depthJitter = 0.4f;
+  EXPECT_TRUE(consistentSurface(jittering, 5.5f, a.normal, 1.0f, 0.0f, 0.03f, 0.5f, 0.1f));
+  EXPECT_FALSE(consistentSurface(jittering, 5.6f, a.normal, 1.0f, 0.0f, 0.03f, 0.5f, 0.1f));
+  // Normals 72 degrees apart: a disocclusion where both gradients exceed normalGradient and
+  // the stored normal has been steady, not where it has wandered that far or the gradients
+  // are weak (mostly volume scattering).
+  const glm::vec3 tilted(std::sin(std::acos(0.3f)), 0.0f, 0.3f);
+  Surface weak = a;
+  weak.gradientMagnitude = 0.2f;
+  EXPECT_FALSE(consistentSurface(weak, 5.0f, tilted, 0.2f, 0.0f, 0.03f, 0.5f, 0.1f));
+  EXPECT_TRUE(consistentSurface(weak, 5.0f, tilted, 0.2f, 0.0f, 0.03f, 0.5f, 0.3f));
+  EXPECT_FALSE(consistentSurface(a, 5.0f, tilted, 1.0f, 0.0f, 0.03f, 0.5f, 0.3f));
+  Surface wandering = a;
+  wandering.normalJitter = 0.8f;
+  EXPECT_TRUE(consistentSurface(wandering, 5.0f, tilted, 1.0f, 0.0f, 0.03f, 0.5f, 0.3f));
+  EXPECT_FALSE(consistentSurface(wandering, 5.0f, -a.normal, 1.0f, 0.0f, 0.03f, 0.5f, 0.3f));
 }
 
 TEST(DenoiseKernels, DemodulationRoundTripAndClamp)

@@ -34,7 +34,8 @@ __global__ void stereoBlendKernel(const Surface* left, const Surface* right,
     projectToPixel(rightViewProjection, rightView, width, height, s.firstScatterPosition, pixel, depth))
   {
     const int q = static_cast<int>(pixel.y) * width + static_cast<int>(pixel.x);
-    if (consistentSurface(right[q], depth, s.normal, s.gradientMagnitude, s.depthSpread, 0.03f, 0.5f))
+    if (consistentSurface(
+          right[q], depth, s.normal, s.gradientMagnitude, s.depthSpread, 0.03f, 0.5f, 0.3f))
     {
       const float lambda = stereoBlendWeight(s.albedo, right[q].albedo, 0.5f, 2.0f);
       value = lambda * value + (1.0f - lambda) * rightD1[q];

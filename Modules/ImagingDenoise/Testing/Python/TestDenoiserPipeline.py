@@ -91,6 +91,11 @@ class DenoiserPipelineTest(unittest.TestCase):
         self.assertEqual(denoiser.GetRelitHistoryReuse(), 1.0)
         self.assertEqual(denoiser.GetMaximumHistoryAngle(), 6.0)
         self.assertFalse(denoiser.GetBicubicHistory())
+        self.assertEqual(denoiser.GetSurfaceJitterTolerance(), 3.0)
+        self.assertAlmostEqual(denoiser.GetNormalTestGradient(), 0.3)
+        denoiser.SetNormalTestGradient(2.0)  # clamped to a gradient magnitude
+        self.assertEqual(denoiser.GetNormalTestGradient(), 1.0)
+        denoiser.SetNormalTestGradient(0.3)
         self.assertEqual(mapper.RenderStereoFrame(volume, left[0], left[1], right[0],
                                                   right[1], 40, 40), 1)
         denoiser.SetIlluminationDifference(0.5)

@@ -29,6 +29,14 @@ struct Surface
   // material the first scatter point is a random depth along the ray, so depths of the same
   // structure differ by about this much; at an opaque surface it is the slope's spread only.
   float depthSpread = 0.0f;
+  // How far this pixel's first scatter depth and normal move from frame to frame by chance,
+  // learnt over its history: surfaceJitterTolerance times the RMS of the differences between
+  // consecutive frames' scatter points that passed the disocclusion test (depth difference;
+  // 1 - cosine of the normals). 0 until the history has one. Inside translucent material a
+  // ray scatters at a random depth, where the gradient, and so the normal, is another one
+  // each frame; the 3x3 spread misses this where a gradient makes depthSlack 0.
+  float depthJitter = 0.0f;
+  float normalJitter = 0.0f;
   // None: no path of this pixel scattered (background). Own: the pixel's first scatter point.
   // Borrowed: no sample scattered this frame but a neighbour's did, so the pixel (a partly
   // covered silhouette pixel) is filtered and reprojected with the neighbour's surface.
@@ -119,11 +127,6 @@ HV_FUNCTION float bilateralWeight(const Surface& a, const Surface& b, const Edge
   return glm::exp(-(albedoTerm + normalTerm + depthTerm));
 }
 
-// Whether the surface stored in another view (or frame) at the reprojected pixel is the one
-// reprojected there, not an occluder or a different layer: the depth of the reprojected point
-// in that view must match the stored depth, within the relative tolerance plus twice the
-// depth slack (the stochastic first-scatter depth inside translucent material),
-// and where both have a gradient the normals must agree. A failure is a disocclusion.
 // Catmull-Rom weights of the taps at -1, 0, 1, 2 for a sample at t in [0, 1) past tap 0. The
 // cubic interpolates (t = 0 gives tap 0 alone) and reproduces linear ramps; its negative lobes
 // keep the detail that a bilinear fetch would blur at every reprojection of a moving view.
@@ -137,23 +140,35 @@ HV_FUNCTION void catmullRomWeights(float t, float weights[4])
   weights[3] = 0.5f * t3 - 0.5f * t2;
 }
 
+// Whether the surface stored in another view (or frame) at the reprojected pixel is the one
+// reprojected there, not an occluder or a different layer: the depth of the reprojected point
+// in that view must match the stored depth, within the relative tolerance plus twice the
+// depth slack plus the stored pixel's learnt depth jitter (both for the stochastic
+// first-scatter depth inside translucent material), and where both have a gradient the
+// normals must agree within normalCosine or the stored pixel's learnt normal jitter. "Both
+// have a gradient" means both gradient magnitudes exceed normalGradient: below it a scatter
+// event is mostly a volume event (the mapper's default surface factor 5 makes it a surface
+// event with probability 0.39 at 0.1 and 0.78 at 0.3), the gradient's direction does not
+// shape the light, and a random scatter point's normal is another one each frame. A failure
+// is a disocclusion.
 HV_FUNCTION bool consistentSurface(const Surface& stored, float reprojectedDepth,
   const glm::vec3& normal, float gradientMagnitude, float depthSpread, float depthTolerance,
-  float normalCosine)
+  float normalCosine, float normalGradient)
 {
   if (stored.kind == SurfaceNone)
   {
     return false;
   }
-  const float slack =
-    2.0f * depthSlack(stored.depthSpread, stored.gradientMagnitude, depthSpread, gradientMagnitude);
+  const float slack = 2.0f *
+      depthSlack(stored.depthSpread, stored.gradientMagnitude, depthSpread, gradientMagnitude) +
+    stored.depthJitter;
   if (glm::abs(stored.depth - reprojectedDepth) >
     depthTolerance * glm::max(reprojectedDepth, 1e-6f) + slack)
   {
     return false;
   }
-  if (glm::min(stored.gradientMagnitude, gradientMagnitude) > 0.1f &&
-    glm::dot(stored.normal, normal) < normalCosine)
+  if (glm::min(stored.gradientMagnitude, gradientMagnitude) > normalGradient &&
+    glm::dot(stored.normal, normal) < glm::min(normalCosine, 1.0f - stored.normalJitter))
   {
     return false;
   }

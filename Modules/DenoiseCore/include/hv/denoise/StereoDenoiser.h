@@ -95,7 +95,16 @@ struct DenoiserParameters
   float exponentialAverageAlpha = 0.0f;
   // Disocclusion tests of reprojected pixels: relative depth difference and normal cosine.
   float depthTolerance = 0.03f;
+  // The disocclusion test also allows this many RMS frame-to-frame differences of the stored
+  // pixel's first scatter depth and normal (learnt over its history; Surface::depthJitter,
+  // normalJitter): inside translucent material the scatter point is random, and without it
+  // 2-4 % of a still head's pixels lost their history every frame. 0 turns it off.
+  float surfaceJitterTolerance = 3.0f;
   float normalCosine = 0.5f;
+  // The normal test applies where both gradient magnitudes (normalised to [0, 1]) exceed this:
+  // at 0.1 the random normals of volume scattering cost a still head 2-3 % of its pixels'
+  // histories every frame (see consistentSurface).
+  float normalTestGradient = 0.3f;
   // Neighbourhood clamping of the history to mean +- width * sigma of the current 3x3
   // neighbourhood (of the cross-view-filtered frame); 0 switches it off.
   float clampWidth = 2.0f;
