@@ -1333,8 +1333,8 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           ? info.luminanceSquareMean - info.luminanceMean * info.luminanceMean
           : luminanceSquareMean - luminanceMean * luminanceMean;
         accumulated.set(i, blended);
-        // Written here, after every reprojection of this frame has read the previous frame's
-        // surfaces: next frame this surface is the stored one.
+        // The jitter learnt so far travels with the surface: next frame this surface is the
+        // stored one that the disocclusion tests read (and D2 reads it this frame).
         eye.surface[i].depthJitter =
           p.surfaceJitterTolerance * std::sqrt(info.depthDifferenceSquareMean);
         eye.surface[i].normalJitter =
