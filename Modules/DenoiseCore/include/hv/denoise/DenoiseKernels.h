@@ -110,6 +110,36 @@ HV_FUNCTION bool pointOnPixelRay(const glm::mat4& inverseViewProjection, const g
   return true;
 }
 
+// e^-x for x >= 0 (negative x count as 0), to a relative error below 4e-6 on [0, 86] (the
+// float product x log2(e) dominates; the series adds less than 2e-7). Written out rather
+// than calling expf because the wavelet filter evaluates it nine times per pixel and level,
+// and only a branch-free inline form lets the compiler vectorise that loop: glibc's vector
+// expf (libmvec) is used only under -ffast-math, which would also reorder the filter's sums.
+// The per-pixel weights (zeta, D2's lambda) use it too: inline, it costs less than a call.
+// e^-x = 2^-t with t = x log2(e) = n + f, n the nearest integer, |f| <= 1/2; 2^-n is built in
+// the exponent bits and 2^-f = e^y, y = -f ln 2, by its Taylor series to y^6 (the remainder
+// is below |y|^7 / 7! < 2e-7 for |y| <= ln(2)/2). Results below 2^-125 are not flushed to 0.
+HV_FUNCTION float exponentialOfNegative(float x)
+{
+#if defined(__CUDA_ARCH__)
+  return __expf(-glm::max(x, 0.0f));
+#else
+  const float t = glm::min(glm::max(x, 0.0f) * 1.44269504f, 125.0f);
+  const int n = static_cast<int>(t + 0.5f); // t >= 0: truncation rounds to nearest
+  const float y = (static_cast<float>(n) - t) * 0.693147181f;
+  const float series = 1.0f +
+    y *
+      (1.0f +
+        y *
+          (0.5f +
+            y * (1.0f / 6.0f + y * (1.0f / 24.0f + y * (1.0f / 120.0f + y * (1.0f / 720.0f))))));
+  const std::int32_t bits = (127 - n) << 23; // the float 2^-n
+  float power;
+  std::memcpy(&power, &bits, sizeof(power));
+  return series * power;
+#endif
+}
+
 // zeta: the bilateral weight between the surfaces seen by two pixels (the paper weights by
 // the albedo, the gradient at x and the z-depth of x). The normal term only counts where both
 // points have a gradient: inside homogeneous material the gradient direction is noise.
@@ -124,7 +154,7 @@ HV_FUNCTION float bilateralWeight(const Surface& a, const Surface& b, const Edge
   const float depthTerm = glm::abs(a.depth - b.depth) /
     (e.depthSigma * glm::max(a.depth, 1e-6f) +
       depthSlack(a.depthSpread, a.gradientMagnitude, b.depthSpread, b.gradientMagnitude) + 1e-12f);
-  return glm::exp(-(albedoTerm + normalTerm + depthTerm));
+  return exponentialOfNegative(albedoTerm + normalTerm + depthTerm);
 }
 
 // Catmull-Rom weights of the taps at -1, 0, 1, 2 for a sample at t in [0, 1) past tap 0. The
@@ -202,7 +232,7 @@ HV_FUNCTION float temporalGate(float illuminationDifference, float steepness, fl
 HV_FUNCTION float stereoBlendWeight(
   const glm::vec3& albedo, const glm::vec3& otherAlbedo, float alpha, float beta)
 {
-  const float lambda = alpha * (beta - glm::exp(-glm::length(albedo - otherAlbedo)));
+  const float lambda = alpha * (beta - exponentialOfNegative(glm::length(albedo - otherAlbedo)));
   return clampf(lambda, 0.0f, 1.0f);
 }
 
@@ -223,35 +253,6 @@ HV_FUNCTION glm::vec4 remodulate(const glm::vec4& signal, const glm::vec3& albed
   return glm::vec4(albedo.x > floor ? signal.x * albedo.x : signal.x,
     albedo.y > floor ? signal.y * albedo.y : signal.y,
     albedo.z > floor ? signal.z * albedo.z : signal.z, signal.w);
-}
-
-// e^-x for x >= 0 (negative x count as 0), to a relative error below 4e-6 on [0, 86] (the
-// float product x log2(e) dominates; the series adds less than 2e-7). Written out rather
-// than calling expf because the wavelet filter evaluates it nine times per pixel and level,
-// and only a branch-free inline form lets the compiler vectorise that loop: glibc's vector
-// expf (libmvec) is used only under -ffast-math, which would also reorder the filter's sums.
-// e^-x = 2^-t with t = x log2(e) = n + f, n the nearest integer, |f| <= 1/2; 2^-n is built in
-// the exponent bits and 2^-f = e^y, y = -f ln 2, by its Taylor series to y^6 (the remainder
-// is below |y|^7 / 7! < 2e-7 for |y| <= ln(2)/2). Results below 2^-125 are not flushed to 0.
-HV_FUNCTION float exponentialOfNegative(float x)
-{
-#if defined(__CUDA_ARCH__)
-  return __expf(-glm::max(x, 0.0f));
-#else
-  const float t = glm::min(glm::max(x, 0.0f) * 1.44269504f, 125.0f);
-  const int n = static_cast<int>(t + 0.5f); // t >= 0: truncation rounds to nearest
-  const float y = (static_cast<float>(n) - t) * 0.693147181f;
-  const float series = 1.0f +
-    y *
-      (1.0f +
-        y *
-          (0.5f +
-            y * (1.0f / 6.0f + y * (1.0f / 24.0f + y * (1.0f / 120.0f + y * (1.0f / 720.0f))))));
-  const std::int32_t bits = (127 - n) << 23; // the float 2^-n
-  float power;
-  std::memcpy(&power, &bits, sizeof(power));
-  return series * power;
-#endif
 }
 
 // Edge-stopping weight of one tap of the a-trous wavelet filter (Dammertz et al. 2010, with
@@ -278,10 +279,13 @@ HV_FUNCTION float waveletWeightOfChannels(float centreDepth, float centreSpread,
   const float luminanceTerm = glm::abs(centreLuminance - tapLuminance) * luminanceScale;
   // A weight below e^-30 (1e-13) adds nothing a float sum can hold next to the centre tap's
   // 0.25. Zeroing it keeps the weights and their squares (variance propagation) out of the
-  // subnormal range, which is slow on x86 and flushed on GPUs; the clamp keeps the unused
-  // side of the select (vector code evaluates both) normal too.
+  // subnormal range, which is slow on x86 and flushed on GPUs; the clamp keeps the e^-x that
+  // is computed and then dropped normal too. The cut-off is a product with 0 or 1, not a
+  // select of two values: GCC 12 if-converts the select for SSE2 but, for AVX2 and AVX-512,
+  // leaves a branch that keeps the whole wavelet loop scalar (2.2x slower than SSE2).
   const float exponent = albedoTerm + normalTerm + depthTerm + luminanceTerm;
-  return exponent < 30.0f ? exponentialOfNegative(glm::min(exponent, 30.0f)) : 0.0f;
+  const float keep = exponent < 30.0f ? 1.0f : 0.0f;
+  return keep * exponentialOfNegative(glm::min(exponent, 30.0f));
 }
 
 HV_FUNCTION float inverseTwoSigmaSquared(float sigma)
