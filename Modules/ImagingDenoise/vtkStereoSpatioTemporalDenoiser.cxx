@@ -398,6 +398,7 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.luminanceSigma = static_cast<float>(this->LuminanceSigma);
   p.stereoAlpha = static_cast<float>(this->StereoAlpha);
   p.stereoBeta = static_cast<float>(this->StereoBeta);
+  p.stereoAgreementWidth = static_cast<float>(this->StereoAgreementWidth);
 
   vtkImageData* outputs[2] = { vtkImageData::GetData(outputVector, 0),
     vtkImageData::GetData(outputVector, 1) };
@@ -483,5 +484,6 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "WaveletDepthSigma: " << this->WaveletDepthSigma << "\n";
   os << indent << "StereoAlpha: " << this->StereoAlpha << "\n";
   os << indent << "StereoBeta: " << this->StereoBeta << "\n";
+  os << indent << "StereoAgreementWidth: " << this->StereoAgreementWidth << "\n";
   os << indent << "LastFrameMilliseconds: " << this->Internals->LastMilliseconds << "\n";
 }

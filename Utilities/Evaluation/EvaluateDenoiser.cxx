@@ -72,9 +72,13 @@ head MRI under a real HDR panorama. Prints a Markdown table per sequence.
 )";
 }
 
-constexpr int MethodCount = 5;
+// The issue's methods (the full denoiser with its defaults, which include the noise test of
+// the other eye's value in D2, vtkStereoSpatioTemporalDenoiser::SetStereoAgreementWidth), then
+// the paper's D2 without that test, which the thumbnails leave out.
+constexpr int MethodCount = 6;
+constexpr int ThumbnailMethodCount = 5;
 const char* MethodNames[MethodCount] = { "raw 2 spp", "spatial only", "temporal only", "D1",
-  "D1 + D2 (full)" };
+  "D1 + D2 (full)", "D1 + D2, paper's lambda alone" };
 
 std::vector<float> Display(vtkImageData* image)
 {
@@ -544,6 +548,7 @@ int main(int argc, char* argv[])
       run[2]->SetExponentialAverageAlpha(0.2);
       run[2]->SetClampWidth(0.0);
       run[3]->StereoBlendOff();
+      run[5]->SetStereoAgreementWidth(0.0);
     }
     vtkNew<vtkEnvironmentSyncedLight> light;
     light->SetInputDynamicRange(vtkEnvironmentSyncedLight::HIGH_DYNAMIC_RANGE);
@@ -663,7 +668,7 @@ int main(int argc, char* argv[])
         ++a.frames;
         a.previous[0] = display[0];
         a.previous[1] = display[1];
-        if (frame == thumbnailFrame)
+        if (frame == thumbnailFrame && m < ThumbnailMethodCount)
         {
           thumbnails.push_back(display[0]);
         }

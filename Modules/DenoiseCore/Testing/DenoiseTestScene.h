@@ -65,6 +65,10 @@ struct SceneState
   float wallDepthJitter = 0.0f;
   float wallNormalJitter = 0.0f;
   float wallGradient = 1.0f;
+  // View-dependent light: the left eye sees every point (1 - eyeRadianceDifference / 2) times,
+  // the right eye (1 + eyeRadianceDifference / 2) times its radiance, references included, as
+  // a specular lobe or the phase function makes the eyes see a point differently.
+  float eyeRadianceDifference = 0.0f;
   glm::vec3 cameraPosition{ 0.0f, 0.0f, 8.0f }; // between the eyes, looking at -z
   float interpupillaryDistance = 0.3f;
   float focalDistance = 8.0f;
@@ -155,6 +159,7 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
         continue;
       }
       radiance *= scene.irradianceScale + scene.sideLight * (0.5f + hit.x / 6.0f);
+      radiance *= 1.0f + (eye == 0 ? -0.5f : 0.5f) * scene.eyeRadianceDifference;
       glm::vec3 normal(0.0f, 0.0f, 1.0f);
       float gradient = 1.0f;
       if (hit.z == 0.0f && (scene.wallDepthJitter > 0.0f || scene.wallNormalJitter > 0.0f))

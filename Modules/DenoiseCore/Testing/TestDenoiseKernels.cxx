@@ -173,6 +173,28 @@ TEST(DenoiseKernels, StereoBlendWeight)
   EXPECT_EQ(stereoBlendWeight(albedo, albedo, 0.5f, 0.5f), 0.0f);
 }
 
+// D2's noise test: 1 without a difference or with the test off, e^-1/2 at k standard
+// deviations, falling with the difference, and finite for a zero variance.
+TEST(DenoiseKernels, StereoAgreement)
+{
+  EXPECT_EQ(stereoAgreement(5.0f, 1.0f, 0.0f), 1.0f); // off: the paper's lambda alone
+  EXPECT_NEAR(stereoAgreement(0.0f, 0.04f, 3.0f), 1.0f, 1e-6f);
+  const float sigma = 0.2f; // of the difference, sqrt(v)
+  EXPECT_NEAR(stereoAgreement(3.0f * sigma, sigma * sigma, 3.0f), std::exp(-0.5f), 1e-5f);
+  EXPECT_NEAR(stereoAgreement(-3.0f * sigma, sigma * sigma, 3.0f), std::exp(-0.5f), 1e-5f);
+  float previous = 1.0f;
+  for (float d : { 0.1f, 0.3f, 0.6f, 1.0f, 3.0f })
+  {
+    const float agreement = stereoAgreement(d, sigma * sigma, 3.0f);
+    EXPECT_LT(agreement, previous) << d;
+    previous = agreement;
+  }
+  EXPECT_LT(previous, 1e-4f);
+  // No noise: any difference is real, none is no reason to stop blending.
+  EXPECT_LT(stereoAgreement(0.1f, 0.0f, 3.0f), 1e-30f);
+  EXPECT_NEAR(stereoAgreement(0.0f, 0.0f, 3.0f), 1.0f, 1e-6f);
+}
+
 // w_v's sigmoid delta(1 / (T - 1)) falls with T; T = 0 and T -> 1 are finite, NaN drops the
 // history, and the plain logistic gives the textbook value at T = 0.
 TEST(DenoiseKernels, TemporalWeightDecreasesWithIlluminationDifference)

@@ -38,7 +38,10 @@ __global__ void stereoBlendKernel(const Surface* left, const Surface* right,
           right[q], depth, s.normal, s.gradientMagnitude, s.depthSpread, 0.03f, 0.5f, 0.3f))
     {
       const float lambda = stereoBlendWeight(s.albedo, right[q].albedo, 0.5f, 2.0f);
-      value = lambda * value + (1.0f - lambda) * rightD1[q];
+      const float otherWeight = (1.0f - lambda) *
+        stereoAgreement(
+          luminance(glm::vec3(value)) - luminance(glm::vec3(rightD1[q])), 0.01f, 3.0f);
+      value = (1.0f - otherWeight) * value + otherWeight * rightD1[q];
       w = glm::vec4(bilateralWeight(s, right[q], edges),
         temporalGate(illuminationDifference, 20.0f, -1.25f),
         waveletWeight(s, right[q], luminance(glm::vec3(value)),

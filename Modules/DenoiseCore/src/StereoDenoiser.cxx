@@ -1445,26 +1445,37 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           const BilinearTaps taps = bilinearTaps(pixel, width, height);
           glm::vec4 otherValue(0.0f);
           glm::vec3 otherAlbedo(0.0f);
+          float otherLuminance = 0.0f, otherVariance = 0.0f;
           float weightSum = 0.0f;
           for (int t = 0; t < taps.count; ++t)
           {
-            const Surface& stored = other.surface[taps.index[t]];
+            const std::size_t j = taps.index[t];
+            const Surface& stored = other.surface[j];
             if (!consistentSurface(stored, depth, s.normal, s.gradientMagnitude, s.depthSpread,
                   p.depthTolerance, p.normalCosine, p.normalTestGradient))
             {
               continue;
             }
-            otherValue += taps.weight[t] * other.firstStep[taps.index[t]];
-            otherAlbedo += taps.weight[t] * stored.albedo;
-            weightSum += taps.weight[t];
+            const float w = taps.weight[t];
+            otherValue += w * other.firstStep[j];
+            otherAlbedo += w * stored.albedo;
+            otherLuminance += w * luminance(glm::vec3(other.filtered[source].at(j)));
+            otherVariance += w * other.variance[source][j];
+            weightSum += w;
           }
           if (weightSum > 0.05f)
           {
             otherValue /= weightSum;
             otherAlbedo /= weightSum;
+            // The paper's lambda, and how far the eyes agree within their noise (both in
+            // demodulated luminance, where the wavelet filter's variance lives).
             const float lambda =
               stereoBlendWeight(s.albedo, otherAlbedo, p.stereoAlpha, p.stereoBeta);
-            value = lambda * value + (1.0f - lambda) * otherValue;
+            const float agreement = stereoAgreement(
+              luminance(glm::vec3(eye.filtered[source].at(i))) - otherLuminance / weightSum,
+              eye.variance[source][i] + otherVariance / weightSum, p.stereoAgreementWidth);
+            const float otherWeight = (1.0f - lambda) * agreement;
+            value = (1.0f - otherWeight) * value + otherWeight * otherValue;
           }
         }
         out[4 * i] = value.x;

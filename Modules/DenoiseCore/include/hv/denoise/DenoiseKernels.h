@@ -236,6 +236,25 @@ HV_FUNCTION float stereoBlendWeight(
   return clampf(lambda, 0.0f, 1.0f);
 }
 
+// How far D2 may blend the other eye at a point, beyond the paper's lambda: e^(-d^2 / (2 k^2
+// v)), d the difference of the eyes' filtered luminances there, v the sum of their
+// variances, k = agreementWidth (0: always 1, the paper's D2). Noise differs between the eyes
+// by about sqrt(v) and is what D2 is for; a difference of several standard deviations is
+// something else, which lambda ~ 0.5 would put half into each eye as a bias: the view
+// dependence of the phase function and the specular lobe (the eyes see a point some
+// degrees apart), the other eye's interpolation between pixel centres, a wrong
+// correspondence in translucent tissue. The blend becomes v_L + (1 - lambda) a (v_R - v_L).
+HV_FUNCTION float stereoAgreement(
+  float luminanceDifference, float varianceSum, float agreementWidth)
+{
+  if (!(agreementWidth > 0.0f))
+  {
+    return 1.0f;
+  }
+  return exponentialOfNegative(luminanceDifference * luminanceDifference /
+    (2.0f * agreementWidth * agreementWidth * glm::max(varianceSum, 0.0f) + 1e-20f));
+}
+
 // Albedo demodulation (Schied et al. 2017): filtering the incident-light factor keeps texture
 // detail that the filter would otherwise blur. Channels with (almost) no albedo keep the
 // radiance as is, which re-modulation then reverses exactly.
