@@ -386,6 +386,7 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.relightingRadius = static_cast<float>(this->RelightingRadius);
   p.relitHistoryReuse = static_cast<float>(this->RelitHistoryReuse);
   p.relitHistoryRejection = static_cast<float>(this->RelitHistoryRejection);
+  p.relightingRefinementFrames = this->RelightingRefinementFrames;
   p.bicubicHistory = this->BicubicHistory;
   p.maximumHistoryAngle = static_cast<float>(this->MaximumHistoryAngle);
   p.exponentialAverageAlpha = static_cast<float>(this->ExponentialAverageAlpha);
@@ -469,6 +470,7 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "RelightingRadius: " << this->RelightingRadius << "\n";
   os << indent << "RelitHistoryReuse: " << this->RelitHistoryReuse << "\n";
   os << indent << "RelitHistoryRejection: " << this->RelitHistoryRejection << "\n";
+  os << indent << "RelightingRefinementFrames: " << this->RelightingRefinementFrames << "\n";
   os << indent << "BicubicHistory: " << (this->BicubicHistory ? "On" : "Off") << "\n";
   os << indent << "MaximumHistoryAngle: " << this->MaximumHistoryAngle << "\n";
   os << indent << "ExponentialAverageAlpha: " << this->ExponentialAverageAlpha << "\n";

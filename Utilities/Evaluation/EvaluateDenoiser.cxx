@@ -50,6 +50,7 @@ struct Options
   int ReferenceSamples = 1024;
   std::string Sequences = "static,orbit,rotate,switch";
   std::string Images;
+  int SwitchRuns = 4;
 };
 
 void Usage()
@@ -68,6 +69,9 @@ head MRI under a real HDR panorama. Prints a Markdown table per sequence.
                          view's reference and the raw-spp curve use 4x this
   --sequences LIST       any of static,orbit,rotate,switch [all]
   --images DIR           write thumbnail strips (left eye) as PNG into DIR
+  --switch-runs N        repeat the light switch N times with independent random numbers
+                         [4]: one 2-spp frame's PSNR varies by a few tenths of a dB, as much
+                         as the recovery criterion's margin; its figures are means over runs
   --help                 this text
 )";
 }
@@ -215,9 +219,37 @@ struct Accumulator
 {
   double psnr = 0.0, ssim = 0.0, flicker = 0.0, errorDifference = 0.0, noiseDiscrepancy = 0.0;
   int frames = 0, flickerFrames = 0;
-  std::vector<double> psnrPerFrame;
+  std::vector<std::vector<double>> psnrPerRunAndFrame;
   std::vector<float> previous[2];
 };
+
+// Each frame's PSNR, averaged over the runs.
+std::vector<double> MeanPSNRPerFrame(const Accumulator& a)
+{
+  std::vector<double> mean(a.psnrPerRunAndFrame.front().size(), 0.0);
+  for (const std::vector<double>& run : a.psnrPerRunAndFrame)
+  {
+    for (std::size_t k = 0; k < mean.size(); ++k)
+    {
+      mean[k] += run[k] / static_cast<double>(a.psnrPerRunAndFrame.size());
+    }
+  }
+  return mean;
+}
+
+// Frames after the switch until the PSNR is back within 1 dB of the frame before it; -1 if never.
+int FramesToRecover(const std::vector<double>& psnrPerFrame, int switchFrame)
+{
+  const double before = psnrPerFrame[switchFrame - 1];
+  for (std::size_t k = switchFrame; k < psnrPerFrame.size(); ++k)
+  {
+    if (psnrPerFrame[k] >= before - 1.0)
+    {
+      return static_cast<int>(k) - switchFrame;
+    }
+  }
+  return -1;
+}
 
 void WriteStrip(const std::string& path, const std::vector<std::vector<float>>& images, int width,
   int height)
@@ -342,6 +374,8 @@ int main(int argc, char* argv[])
       options.Sequences = value();
     else if (arg == "--images")
       options.Images = value();
+    else if (arg == "--switch-runs")
+      options.SwitchRuns = std::max(1, std::atoi(value().c_str()));
     else
     {
       std::cerr << "holovolume-denoise-evaluation: unknown option '" << arg << "'; see --help\n";
@@ -535,159 +569,196 @@ int main(int argc, char* argv[])
       return 2;
     }
     std::cerr << "sequence " << sequence;
-    // [run][method]: run 1 denoises the twin frames.
-    vtkNew<vtkStereoSpatioTemporalDenoiser> denoisers[2][MethodCount];
-    for (auto& run : denoisers)
-    {
-      run[1]->CrossViewSamplesOff();
-      run[1]->TemporalAccumulationOff();
-      run[1]->StereoBlendOff();
-      run[2]->CrossViewSamplesOff();
-      run[2]->SpatialFilterOff();
-      run[2]->StereoBlendOff();
-      run[2]->SetExponentialAverageAlpha(0.2);
-      run[2]->SetClampWidth(0.0);
-      run[3]->StereoBlendOff();
-      run[5]->SetStereoAgreementWidth(0.0);
-    }
-    vtkNew<vtkEnvironmentSyncedLight> light;
-    light->SetInputDynamicRange(vtkEnvironmentSyncedLight::HIGH_DYNAMIC_RANGE);
-    light->SetOutputHeight(64);
-    light->TemporalSmoothingOff();
     Accumulator results[MethodCount];
     Accumulator referenceFlicker;
     std::vector<double> illuminationDifferences;
     const int switchFrame = options.Frames / 2;
-    vtkSmartPointer<vtkImageData> lampOn = sequence == "switch" ? WithLamp(baseEnvironment) : nullptr;
+    vtkSmartPointer<vtkImageData> lampOn =
+      sequence == "switch" ? WithLamp(baseEnvironment) : nullptr;
     Reference switchReference[2]; // [lamp]
     std::vector<std::vector<float>> thumbnails;
     const int thumbnailFrame = sequence == "static" ? std::min(15, options.Frames - 1)
       : sequence == "switch"                        ? switchFrame + 1
                                                     : options.Frames - 1;
-    for (int frame = 0; frame < options.Frames; ++frame)
+    const int runs = sequence == "switch" ? options.SwitchRuns : 1;
+    // The references' random numbers too depend on the sequence alone (the static view's was
+    // rendered above with seed 7919).
+    const char* sequenceNames[] = { "static", "orbit", "rotate", "switch" };
+    const auto sequenceIndex =
+      std::find(std::begin(sequenceNames), std::end(sequenceNames), sequence) -
+      std::begin(sequenceNames);
+    reference->SetSeed(static_cast<vtkTypeUInt32>(7919 + sequenceIndex));
+    reference->SetFrameIndex(0);
+    for (int repetition = 0; repetition < runs; ++repetition)
     {
-      const double azimuth = sequence == "orbit" ? 35.0 + 1.0 * frame : 35.0;
-      vtkNew<vtkMatrix4x4> v0, v1, p0, p1;
-      vtkMatrix4x4* views[2] = { v0, v1 };
-      vtkMatrix4x4* projections[2] = { p0, p1 };
-      eyeMatrices(azimuth, views, projections);
-      vtkSmartPointer<vtkImageData> environment = baseEnvironment;
-      if (sequence == "rotate")
+      // Each sequence and run starts at frame 0 with seeds of its own, so that a sequence run
+      // alone gives the figures it gives in the full evaluation.
+      raw->SetSeed(static_cast<vtkTypeUInt32>(repetition));
+      raw->SetFrameIndex(0);
+      twin->SetSeed(static_cast<vtkTypeUInt32>(15485863 + repetition));
+      twin->SetFrameIndex(0);
+      // [run][method]: run 1 denoises the twin frames.
+      vtkNew<vtkStereoSpatioTemporalDenoiser> denoisers[2][MethodCount];
+      for (auto& run : denoisers)
       {
-        int dims[3];
-        baseEnvironment->GetDimensions(dims);
-        environment = Rotated(baseEnvironment, static_cast<int>(std::lround(frame * dims[0] / 240.0)));
+        run[1]->CrossViewSamplesOff();
+        run[1]->TemporalAccumulationOff();
+        run[1]->StereoBlendOff();
+        run[2]->CrossViewSamplesOff();
+        run[2]->SpatialFilterOff();
+        run[2]->StereoBlendOff();
+        run[2]->SetExponentialAverageAlpha(0.2);
+        run[2]->SetClampWidth(0.0);
+        run[3]->StereoBlendOff();
+        run[5]->SetStereoAgreementWidth(0.0);
       }
-      else if (sequence == "switch" && frame >= switchFrame)
+      vtkNew<vtkEnvironmentSyncedLight> light;
+      light->SetInputDynamicRange(vtkEnvironmentSyncedLight::HIGH_DYNAMIC_RANGE);
+      light->SetOutputHeight(64);
+      light->TemporalSmoothingOff();
+      for (Accumulator& a : results)
       {
-        environment = lampOn;
+        a.previous[0].clear();
+        a.previous[1].clear();
+        a.psnrPerRunAndFrame.emplace_back();
       }
-      raw->SetEnvironmentMapData(environment);
-      twin->SetEnvironmentMapData(environment);
-      // Each frame is a new camera frame for the synced light, even when the room is the same.
-      vtkNew<vtkImageData> cameraFrame;
-      cameraFrame->ShallowCopy(environment);
-      vtkNew<vtkFieldData> fields;
-      vtkNew<vtkIntArray> frameIndex;
-      frameIndex->SetName("FrameIndex");
-      frameIndex->InsertNextValue(frame);
-      fields->AddArray(frameIndex);
-      cameraFrame->SetFieldData(fields);
-      light->SetInputData(cameraFrame);
-      light->Update();
-      const double t = light->GetIlluminationDifference();
-      illuminationDifferences.push_back(t);
-      raw->RenderStereoFrame(rawVolume, views[0], projections[0], views[1], projections[1],
-        options.Width, options.Height);
-      twin->RenderStereoFrame(twinVolume, views[0], projections[0], views[1], projections[1],
-        options.Width, options.Height);
+      for (int frame = 0; frame < options.Frames; ++frame)
+      {
+        const double azimuth = sequence == "orbit" ? 35.0 + 1.0 * frame : 35.0;
+        vtkNew<vtkMatrix4x4> v0, v1, p0, p1;
+        vtkMatrix4x4* views[2] = { v0, v1 };
+        vtkMatrix4x4* projections[2] = { p0, p1 };
+        eyeMatrices(azimuth, views, projections);
+        vtkSmartPointer<vtkImageData> environment = baseEnvironment;
+        if (sequence == "rotate")
+        {
+          int dims[3];
+          baseEnvironment->GetDimensions(dims);
+          environment =
+            Rotated(baseEnvironment, static_cast<int>(std::lround(frame * dims[0] / 240.0)));
+        }
+        else if (sequence == "switch" && frame >= switchFrame)
+        {
+          environment = lampOn;
+        }
+        raw->SetEnvironmentMapData(environment);
+        twin->SetEnvironmentMapData(environment);
+        // Each frame is a new camera frame for the synced light, even when the room is the same.
+        vtkNew<vtkImageData> cameraFrame;
+        cameraFrame->ShallowCopy(environment);
+        vtkNew<vtkFieldData> fields;
+        vtkNew<vtkIntArray> frameIndex;
+        frameIndex->SetName("FrameIndex");
+        frameIndex->InsertNextValue(frame);
+        fields->AddArray(frameIndex);
+        cameraFrame->SetFieldData(fields);
+        light->SetInputData(cameraFrame);
+        light->Update();
+        const double t = light->GetIlluminationDifference();
+        if (repetition == 0)
+        {
+          illuminationDifferences.push_back(t);
+        }
+        raw->RenderStereoFrame(rawVolume, views[0], projections[0], views[1], projections[1],
+          options.Width, options.Height);
+        twin->RenderStereoFrame(twinVolume, views[0], projections[0], views[1], projections[1],
+          options.Width, options.Height);
 
-      const Reference* current = nullptr;
-      Reference frameReference;
-      if (sequence == "static")
-      {
-        current = &staticReference;
-      }
-      else if (sequence == "switch")
-      {
-        const int lamp = frame >= switchFrame ? 1 : 0;
-        if (switchReference[lamp].eye[0].empty())
+        const Reference* current = nullptr;
+        Reference frameReference;
+        if (sequence == "static")
         {
-          renderReference(environment, views, projections, options.ReferenceSamples,
-            switchReference[lamp]);
+          current = &staticReference;
         }
-        current = &switchReference[lamp];
-      }
-      else
-      {
-        renderReference(environment, views, projections, options.ReferenceSamples, frameReference);
-        current = &frameReference;
-      }
+        else if (sequence == "switch")
+        {
+          const int lamp = frame >= switchFrame ? 1 : 0;
+          if (switchReference[lamp].eye[0].empty())
+          {
+            renderReference(
+              environment, views, projections, options.ReferenceSamples, switchReference[lamp]);
+          }
+          current = &switchReference[lamp];
+        }
+        else
+        {
+          renderReference(
+            environment, views, projections, options.ReferenceSamples, frameReference);
+          current = &frameReference;
+        }
 
-      const std::vector<float>* references = current->eye;
-      const std::vector<std::pair<vtkIdType, vtkIdType>>& pairs = current->correspondingPixels;
-      for (int m = 0; m < MethodCount; ++m)
-      {
-        std::vector<float> display[2], twinDisplay[2];
-        for (int run = 0; run < 2; ++run)
+        const std::vector<float>* references = current->eye;
+        const std::vector<std::pair<vtkIdType, vtkIdType>>& pairs = current->correspondingPixels;
+        for (int m = 0; m < MethodCount; ++m)
         {
-          vtkPathTracedVolumeMapper* source = run == 0 ? raw.Get() : twin.Get();
-          vtkImageData* eyes[2] = { source->GetEyeOutput(0), source->GetEyeOutput(1) };
-          if (m > 0)
+          std::vector<float> display[2], twinDisplay[2];
+          for (int run = 0; run < 2; ++run)
           {
-            vtkStereoSpatioTemporalDenoiser* denoiser = denoisers[run][m];
-            denoiser->SetInputData(0, eyes[0]);
-            denoiser->SetInputData(1, eyes[1]);
-            denoiser->SetIlluminationDifference(t);
-            denoiser->Update();
-            eyes[0] = denoiser->GetEyeOutput(0);
-            eyes[1] = denoiser->GetEyeOutput(1);
+            vtkPathTracedVolumeMapper* source = run == 0 ? raw.Get() : twin.Get();
+            vtkImageData* eyes[2] = { source->GetEyeOutput(0), source->GetEyeOutput(1) };
+            if (m > 0)
+            {
+              vtkStereoSpatioTemporalDenoiser* denoiser = denoisers[run][m];
+              denoiser->SetInputData(0, eyes[0]);
+              denoiser->SetInputData(1, eyes[1]);
+              denoiser->SetIlluminationDifference(t);
+              denoiser->Update();
+              eyes[0] = denoiser->GetEyeOutput(0);
+              eyes[1] = denoiser->GetEyeOutput(1);
+            }
+            std::vector<float>* out = run == 0 ? display : twinDisplay;
+            out[0] = Display(eyes[0]);
+            out[1] = Display(eyes[1]);
           }
-          std::vector<float>* out = run == 0 ? display : twinDisplay;
-          out[0] = Display(eyes[0]);
-          out[1] = Display(eyes[1]);
-        }
-        Accumulator& a = results[m];
-        double psnr = 0.0;
-        for (int e = 0; e < 2; ++e)
-        {
-          psnr += 0.5 * hv::denoise::displayPSNR(display[e], references[e]);
-          a.ssim += 0.5 * SSIM(display[e], references[e], options.Width, options.Height);
-          if (!a.previous[e].empty())
+          Accumulator& a = results[m];
+          double psnr = 0.0;
+          for (int e = 0; e < 2; ++e)
           {
-            a.flicker += 0.5 * MeanAbsoluteChange(display[e], a.previous[e]);
+            psnr += 0.5 * hv::denoise::displayPSNR(display[e], references[e]);
+            a.ssim += 0.5 * SSIM(display[e], references[e], options.Width, options.Height);
+            if (!a.previous[e].empty())
+            {
+              a.flicker += 0.5 * MeanAbsoluteChange(display[e], a.previous[e]);
+            }
+          }
+          a.flickerFrames += a.previous[0].empty() ? 0 : 1;
+          a.psnr += psnr;
+          a.psnrPerRunAndFrame.back().push_back(psnr);
+          a.errorDifference +=
+            InterEyeDifference(pairs, display[0], display[1], references[0], references[1]);
+          a.noiseDiscrepancy += std::sqrt(0.5) *
+            InterEyeDifference(pairs, display[0], display[1], twinDisplay[0], twinDisplay[1]);
+          ++a.frames;
+          a.previous[0] = display[0];
+          a.previous[1] = display[1];
+          if (repetition == 0 && frame == thumbnailFrame && m < ThumbnailMethodCount)
+          {
+            thumbnails.push_back(display[0]);
           }
         }
-        a.flickerFrames += a.previous[0].empty() ? 0 : 1;
-        a.psnr += psnr;
-        a.psnrPerFrame.push_back(psnr);
-        a.errorDifference +=
-          InterEyeDifference(pairs, display[0], display[1], references[0], references[1]);
-        a.noiseDiscrepancy += std::sqrt(0.5) *
-          InterEyeDifference(pairs, display[0], display[1], twinDisplay[0], twinDisplay[1]);
-        ++a.frames;
-        a.previous[0] = display[0];
-        a.previous[1] = display[1];
-        if (frame == thumbnailFrame && m < ThumbnailMethodCount)
+        if (repetition > 0)
         {
-          thumbnails.push_back(display[0]);
+          std::cerr << ".";
+          continue;
         }
-      }
-      if (!referenceFlicker.previous[0].empty())
-      {
-        for (int e = 0; e < 2; ++e)
+        if (!referenceFlicker.previous[0].empty())
         {
-          referenceFlicker.flicker += 0.5 * MeanAbsoluteChange(references[e], referenceFlicker.previous[e]);
+          for (int e = 0; e < 2; ++e)
+          {
+            referenceFlicker.flicker +=
+              0.5 * MeanAbsoluteChange(references[e], referenceFlicker.previous[e]);
+          }
+          ++referenceFlicker.flickerFrames;
         }
-        ++referenceFlicker.flickerFrames;
+        referenceFlicker.previous[0] = references[0];
+        referenceFlicker.previous[1] = references[1];
+        if (frame == thumbnailFrame)
+        {
+          thumbnails.push_back(references[0]);
+        }
+        std::cerr << ".";
       }
-      referenceFlicker.previous[0] = references[0];
-      referenceFlicker.previous[1] = references[1];
-      if (frame == thumbnailFrame)
-      {
-        thumbnails.push_back(references[0]);
-      }
-      std::cerr << ".";
+      std::cerr << (repetition + 1 < runs ? "\n        run " + std::to_string(repetition + 2) : "");
     }
     std::cerr << "\n";
     if (!options.Images.empty() && !thumbnails.empty())
@@ -699,6 +770,10 @@ int main(int argc, char* argv[])
     const double referenceFlickerMean =
       referenceFlicker.flickerFrames ? referenceFlicker.flicker / referenceFlicker.flickerFrames : 0.0;
     std::printf("\n## Sequence: %s\n\n", sequence.c_str());
+    if (runs > 1)
+    {
+      std::printf("%d runs with independent random numbers; means over the runs\n\n", runs);
+    }
     std::printf("T from vtkEnvironmentSyncedLight: first frame %.2f, then at most %.3f",
       illuminationDifferences[0],
       *std::max_element(illuminationDifferences.begin() + 1, illuminationDifferences.end()));
@@ -721,6 +796,7 @@ int main(int argc, char* argv[])
     for (int m = 0; m < MethodCount; ++m)
     {
       const Accumulator& a = results[m];
+      const std::vector<double> psnrPerFrame = MeanPSNRPerFrame(a);
       const double psnr = a.psnr / a.frames;
       const double spp = equalQualitySpp(psnr);
       std::ostringstream sppText;
@@ -738,32 +814,31 @@ int main(int argc, char* argv[])
         1000.0 * a.noiseDiscrepancy / a.frames, 1000.0 * a.errorDifference / a.frames);
       if (sequence == "static")
       {
-        const int at = std::min(15, a.frames - 1);
-        const double spp16 = equalQualitySpp(a.psnrPerFrame[at]);
-        std::printf(" %.2f (%s%d spp) |", a.psnrPerFrame[at], spp16 < 0 ? "> " : "",
+        const int at = std::min(15, options.Frames - 1);
+        const double spp16 = equalQualitySpp(psnrPerFrame[at]);
+        std::printf(" %.2f (%s%d spp) |", psnrPerFrame[at], spp16 < 0 ? "> " : "",
           static_cast<int>(std::lround(std::abs(spp16))));
       }
       if (sequence == "switch")
       {
-        // Frames after the switch until the PSNR is back within 1 dB of the frame before it.
-        const double before = a.psnrPerFrame[switchFrame - 1];
-        int recovered = -1;
-        for (int k = switchFrame; k < a.frames; ++k)
+        // On the mean over the runs, then each run's own.
+        auto text = [&](int recovered)
         {
-          if (a.psnrPerFrame[k] >= before - 1.0)
+          return recovered < 0 ? "not within " + std::to_string(options.Frames - switchFrame)
+                               : std::to_string(recovered);
+        };
+        std::printf(" %s", text(FramesToRecover(psnrPerFrame, switchFrame)).c_str());
+        if (runs > 1)
+        {
+          std::printf(" (runs:");
+          for (std::size_t r = 0; r < a.psnrPerRunAndFrame.size(); ++r)
           {
-            recovered = k - switchFrame;
-            break;
+            std::printf("%s %s", r ? "," : "",
+              text(FramesToRecover(a.psnrPerRunAndFrame[r], switchFrame)).c_str());
           }
+          std::printf(")");
         }
-        if (recovered < 0)
-        {
-          std::printf(" not within %d |", a.frames - switchFrame);
-        }
-        else
-        {
-          std::printf(" %d |", recovered);
-        }
+        std::printf(" |");
       }
       std::printf("\n");
     }
@@ -773,6 +848,47 @@ int main(int argc, char* argv[])
                 "RMS of the difference of the eyes' errors there (noise, bias and the references' "
                 "own noise)\n",
       referenceFlickerMean);
+    if (sequence == "switch")
+    {
+      // The PSNR around the lamp, with the standard error of the mean over the runs: what
+      // "frames to recover" reads.
+      const int first = std::max(switchFrame - 2, 1);
+      const int last = std::min(switchFrame + 10, options.Frames - 1);
+      std::printf("\n### PSNR dB around the switch (frame %d)%s\n\n| method |", switchFrame,
+        runs > 1 ? ", mean ± standard error over the runs" : "");
+      for (int k = first; k <= last; ++k)
+      {
+        std::printf(" %+d |", k - switchFrame);
+      }
+      std::printf("\n|---|");
+      for (int k = first; k <= last; ++k)
+      {
+        std::printf("---|");
+      }
+      std::printf("\n");
+      for (int m = 0; m < MethodCount; ++m)
+      {
+        const std::vector<double> mean = MeanPSNRPerFrame(results[m]);
+        std::printf("| %s |", MethodNames[m]);
+        for (int k = first; k <= last; ++k)
+        {
+          double squares = 0.0;
+          for (const std::vector<double>& run : results[m].psnrPerRunAndFrame)
+          {
+            squares += (run[k] - mean[k]) * (run[k] - mean[k]);
+          }
+          if (runs > 1)
+          {
+            std::printf(" %.2f ± %.2f |", mean[k], std::sqrt(squares / (runs - 1) / runs));
+          }
+          else
+          {
+            std::printf(" %.2f |", mean[k]);
+          }
+        }
+        std::printf("\n");
+      }
+    }
     std::fflush(stdout);
   }
   return 0;

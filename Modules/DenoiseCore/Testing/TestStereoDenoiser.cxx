@@ -44,6 +44,17 @@ struct StereoFrame
     EXPECT_TRUE(ok) << error;
     return ok;
   }
+
+  // Frames first .. last-1 of the scene, each denoised as lit by the same light (T given).
+  void settle(const hvtest::SceneState& scene, StereoDenoiser& denoiser, std::uint32_t first,
+    std::uint32_t last, float illuminationDifference)
+  {
+    for (std::uint32_t t = first; t < last; ++t)
+    {
+      this->render(scene, t);
+      this->denoise(denoiser, illuminationDifference);
+    }
+  }
 };
 
 // Root-mean-square difference, over left pixels whose first scatter point the right eye also
@@ -220,11 +231,7 @@ TEST(StereoDenoiser, IlluminationChangeReplacesOldLight)
     StereoDenoiser denoiser;
     denoiser.parameters().clampWidth = clampWidth;
     StereoFrame frame;
-    for (std::uint32_t t = 0; t < 10; ++t)
-    {
-      frame.render(scene, t);
-      frame.denoise(denoiser, 0.01f);
-    }
+    frame.settle(scene, denoiser, 0, 10, 0.01f);
     scene.irradianceScale = 3.0f;
     frame.render(scene, 10);
     frame.denoise(denoiser, illuminationDifference);
@@ -268,11 +275,7 @@ TEST(StereoDenoiser, RelightingKeepsTheHistoryUnderANewLight)
     denoiser.parameters().relightingRadius = relightingRadius;
     StereoFrame frame;
     Outcome outcome{};
-    for (std::uint32_t t = 0; t < 16; ++t)
-    {
-      frame.render(scene, t);
-      frame.denoise(denoiser, 0.01f);
-    }
+    frame.settle(scene, denoiser, 0, 16, 0.01f);
     outcome.before = meanPSNR(frame);
     scene.sideLight = 2.0f;
     frame.render(scene, 16);
@@ -294,14 +297,44 @@ TEST(StereoDenoiser, RelightingKeepsTheHistoryUnderANewLight)
   EXPECT_LT(dropped.historyLength, 1.5);
 }
 
+// The ratio that relights the history comes from one 2-spp frame; measured again over the
+// next frames and averaged (relightingRefinementFrames), its noise no longer stays in the
+// history for as long as the history is.
+TEST(StereoDenoiser, RelightingRatioIsRefinedOverTheNextFrames)
+{
+  auto psnrAfterTheChange = [](int refinementFrames)
+  {
+    hvtest::SceneState scene;
+    StereoDenoiser denoiser;
+    denoiser.parameters().relightingRefinementFrames = refinementFrames;
+    StereoFrame frame;
+    frame.settle(scene, denoiser, 0, 16, 0.01f);
+    scene.sideLight = 2.0f;
+    double psnr = 0.0;
+    for (std::uint32_t t = 16; t < 22; ++t)
+    {
+      frame.render(scene, t);
+      frame.denoise(denoiser, t == 16 ? 0.65f : 0.0f);
+      psnr += t > 16 ? meanPSNR(frame) / 5.0 : 0.0;
+    }
+    return psnr;
+  };
+  const double once = psnrAfterTheChange(0);
+  const double refined = psnrAfterTheChange(4);
+  std::cout << "mean PSNR over the 5 frames after the change: ratio measured once " << once
+            << " dB, refined over 4 frames " << refined << " dB\n";
+  EXPECT_GT(refined, once + 0.3); // measured 34.9 and 35.6 dB
+}
+
 // The light moves and the square's hard shadow jumps from the left of it to the right (T = 0.3).
 // A brightness ratio over 4 pixels cannot move a sharp shadow 28 pixels wide: where the shadow
 // was, the relit history keeps part of it. The fine-scale test rejects the history where it
-// disagrees with the frame beyond noise and halves that error; what is left is a known limit
+// disagrees with the frame beyond noise and halves that error on the frame of the change; the
+// refined ratio of the frames after it moves part of the rest. What is left is a known limit
 // (the paper's w_v alone, dropping the history, does better here, and worse everywhere else).
 TEST(StereoDenoiser, MovedShadowIsRejectedFromTheRelitHistory)
 {
-  auto errorWhereTheShadowWas = [](float relightingRadius, float rejection)
+  auto errorWhereTheShadowWas = [](float relightingRadius, float rejection, int refinementFrames)
   {
     hvtest::SceneState scene;
     scene.shadowShift = glm::vec2(-1.3f, -0.4f);
@@ -309,6 +342,7 @@ TEST(StereoDenoiser, MovedShadowIsRejectedFromTheRelitHistory)
     StereoDenoiser denoiser;
     denoiser.parameters().relightingRadius = relightingRadius;
     denoiser.parameters().relitHistoryRejection = rejection;
+    denoiser.parameters().relightingRefinementFrames = refinementFrames;
     StereoFrame frame;
     for (std::uint32_t t = 0; t < 16; ++t)
     {
@@ -346,16 +380,25 @@ TEST(StereoDenoiser, MovedShadowIsRejectedFromTheRelitHistory)
     }
     return errors;
   };
-  const std::vector<double> relit = errorWhereTheShadowWas(4.0f, 3.0f);
-  const std::vector<double> unchecked = errorWhereTheShadowWas(4.0f, 1e6f);
-  const std::vector<double> dropped = errorWhereTheShadowWas(0.0f, 3.0f);
+  const std::vector<double> relit = errorWhereTheShadowWas(4.0f, 3.0f, 4);
+  const std::vector<double> unchecked = errorWhereTheShadowWas(4.0f, 1e6f, 4);
+  const std::vector<double> dropped = errorWhereTheShadowWas(0.0f, 3.0f, 4);
+  const std::vector<double> relitOnce = errorWhereTheShadowWas(4.0f, 3.0f, 0);
+  const std::vector<double> uncheckedOnce = errorWhereTheShadowWas(4.0f, 1e6f, 0);
   for (std::size_t k = 0; k < relit.size(); ++k)
   {
     std::cout << "frame " << 16 + k << " after the shadow moved, mean relative error where it was: "
               << "relit " << relit[k] << ", relit without the fine-scale test " << unchecked[k]
-              << ", dropped " << dropped[k] << "\n";
-    EXPECT_LT(relit[k], 0.6 * unchecked[k]);
+              << ", dropped " << dropped[k] << "; ratio measured once: relit " << relitOnce[k]
+              << ", without the fine-scale test " << uncheckedOnce[k] << "\n";
+    EXPECT_LT(relit[k], 0.75 * unchecked[k]);
+    if (k > 0)
+    {
+      // The refined ratio follows part of the shadow's move: measured 8-18 % less error.
+      EXPECT_LT(relit[k], 0.95 * relitOnce[k]);
+    }
   }
+  EXPECT_LT(relit[0], 0.6 * unchecked[0]); // measured 0.18 against 0.37
   EXPECT_LT(dropped[0], relit[0]); // the limit, stated
 }
 

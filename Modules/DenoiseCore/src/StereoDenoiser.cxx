@@ -159,6 +159,11 @@ struct EyeState
   glm::mat4 olderViewProjection = glm::mat4(1.0f);
   bool hadPrevious = false;
   bool canReplace = false;
+  // Frames since the history was relit for a change of light, while its ratio is still being
+  // refined (0: none pending); the next frame's value, and the one the last commit replaced.
+  int relightingAge = 0;
+  int nextRelightingAge = 0;
+  int olderRelightingAge = 0;
 
   // Invariant: outside its row spans a surface buffer holds SurfaceNone, so that neighbour
   // and reprojection lookups may land anywhere; inside, every buffer below is this frame's.
@@ -195,6 +200,8 @@ struct EyeState
     this->previousVolumeMatrix = this->volumeMatrix;
     this->hadPrevious = this->hasPrevious;
     this->canReplace = true;
+    this->olderRelightingAge = this->relightingAge;
+    this->relightingAge = this->nextRelightingAge;
     this->previousView = this->view;
     this->previousViewProjection = this->viewProjection;
     this->hasPrevious = true;
@@ -213,6 +220,7 @@ struct EyeState
     this->previousVolumeMatrix = this->olderVolumeMatrix;
     this->hasPrevious = this->hadPrevious;
     this->canReplace = false;
+    this->relightingAge = this->olderRelightingAge;
   }
 
   void resize(int w, int h)
@@ -222,6 +230,8 @@ struct EyeState
     this->height = h;
     this->hasPrevious = false;
     this->canReplace = false;
+    this->relightingAge = 0;
+    this->nextRelightingAge = 0;
     this->surface.assign(n, Surface());
     this->previousSurface.assign(n, Surface());
     this->span.assign(static_cast<std::size_t>(h), RowSpan());
@@ -817,6 +827,8 @@ void StereoDenoiser::reset()
   {
     eye.hasPrevious = false;
     eye.canReplace = false;
+    eye.relightingAge = 0;
+    eye.nextRelightingAge = 0;
     std::fill(eye.historyInfo.begin(), eye.historyInfo.end(), HistoryInfo());
   }
 }
@@ -1203,17 +1215,40 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
   // (1 - delta) less would take many frames to climb back to its old quality.
   // Below a 1 % chance of a change (T < 0.02 with the default sigmoid; sensor noise measured
   // T = 0.014) the correction would be too small to matter, and the frame skips its cost.
-  const bool relight =
-    useHistory && p.exponentialAverageAlpha <= 0.0f && p.relightingRadius > 0.0f && gate < 0.99f;
-  if (relight)
+  // The ratio comes from one 2-spp frame, and its noise would stay in the history, which then
+  // forgets it only at the rate it takes new frames (1/32 a frame when long). For
+  // relightingRefinementFrames frames after the change the ratio is measured again, now
+  // between the frame and the relit history, and the k-th refinement applies 1/(k+1) of it:
+  // the correction becomes the running mean of k+1 independent estimates, its noise falls as
+  // 1/sqrt(k+1), and the light's true change is applied once.
+  const bool canRelight =
+    useHistory && p.exponentialAverageAlpha <= 0.0f && p.relightingRadius > 0.0f;
+  bool relightEye[2] = { false, false };
+  float relightingGain[2] = { 0.0f, 0.0f };
+  for (int e = 0; e < eyeCount; ++e)
   {
-    for (int e = 0; e < eyeCount; ++e)
+    EyeState& eye = impl.eyes[e];
+    eye.nextRelightingAge = 0;
+    if (!canRelight || !eye.hasPrevious)
     {
-      EyeState& eye = impl.eyes[e];
-      if (eye.hasPrevious)
-      {
-        impl.computeRelightingRatio(eye, p);
-      }
+      continue;
+    }
+    if (gate < 0.99f)
+    {
+      relightEye[e] = true;
+      relightingGain[e] = 1.0f - gate;
+      eye.nextRelightingAge = p.relightingRefinementFrames > 0 ? 1 : 0;
+    }
+    else if (eye.relightingAge > 0)
+    {
+      relightEye[e] = true;
+      relightingGain[e] = 1.0f / static_cast<float>(eye.relightingAge + 1);
+      eye.nextRelightingAge =
+        eye.relightingAge < p.relightingRefinementFrames ? eye.relightingAge + 1 : 0;
+    }
+    if (relightEye[e])
+    {
+      impl.computeRelightingRatio(eye, p);
     }
   }
   impl.forSpans(eyeCount, height,
@@ -1270,6 +1305,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         info.frames = 1.0f;
         info.depthMean = s.depth;
         // A relit frame reprojected the history already, for the ratio.
+        const bool relight = relightEye[e];
         const ReprojectedHistory reprojected = !(useHistory && eye.hasPrevious)
           ? ReprojectedHistory()
           : relight ? eye.relitHistory[i]
@@ -1287,7 +1323,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
             // (computeRelightingRatio), and then trusted as a shorter history, since only its
             // brightness was corrected.
             const glm::vec4 relighting = eye.relightingRatio[i];
-            const glm::vec3 ratio = gate + (1.0f - gate) * glm::vec3(relighting);
+            const glm::vec3 ratio = 1.0f + relightingGain[e] * (glm::vec3(relighting) - 1.0f);
             const float oldLuminance = luminance(glm::vec3(history));
             history = glm::vec4(glm::vec3(history) * ratio, history.w);
             const float luminanceRatio =

@@ -89,6 +89,7 @@ class DenoiserPipelineTest(unittest.TestCase):
         # kept; with relighting off (re-denoising the same frame), the paper's w_v drops it.
         self.assertEqual(denoiser.GetRelightingRadius(), 4.0)
         self.assertEqual(denoiser.GetRelitHistoryReuse(), 1.0)
+        self.assertEqual(denoiser.GetRelightingRefinementFrames(), 4)
         self.assertEqual(denoiser.GetMaximumHistoryAngle(), 6.0)
         self.assertFalse(denoiser.GetBicubicHistory())
         self.assertEqual(denoiser.GetSurfaceJitterTolerance(), 3.0)

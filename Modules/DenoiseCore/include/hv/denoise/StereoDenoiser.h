@@ -70,6 +70,9 @@ struct DenoiserParameters
   // the cost of noise (on the head MRI's rotating environment 0.5 lost 2.4 dB against 1).
   float relightingRadius = 4.0f;
   float relitHistoryReuse = 1.0f;
+  // For this many frames after a change of light the ratio is measured again and the k-th
+  // time 1/(k+1) of it applied, so that its correction is the mean of k+1 frames' estimates.
+  int relightingRefinementFrames = 4;
   // Where the relit history and the frame differ at the scale of a pixel (a Gaussian of 1 pixel)
   // by more than this many standard errors of the frame's local mean, the light changed in a
   // way the ratio cannot follow (a hard shadow that moved), and the pixel starts its history
@@ -118,8 +121,8 @@ struct DenoiserParameters
   // this many standard deviations of their noise (stereoAgreement); 0: the paper's lambda
   // alone. On the head MRI at 1440x936 the paper's D2 loses 17 % of D1's equal-quality spp
   // (still view at frame 16: raw 223 against 269); with 3 D2 gains instead (272) and the eyes'
-  // error difference stays as small, but their noise discrepancy falls 1.7-2.5x instead of
-  // 2.4-3.5x: what it no longer averages is real difference between the views.
+  // error difference stays as small, but their noise discrepancy falls 1.7-2.6x instead of
+  // 2.4-3.3x: what it no longer averages is real difference between the views.
   float stereoAgreementWidth = 3.0f;
 };
 
