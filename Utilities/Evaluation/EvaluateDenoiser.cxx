@@ -581,6 +581,12 @@ int main(int argc, char* argv[])
       : sequence == "switch"                        ? switchFrame + 1
                                                     : options.Frames - 1;
     const int runs = sequence == "switch" ? options.SwitchRuns : 1;
+    // Over the runs, each pixel's mean error is its bias and its spread the noise: the left
+    // eye's display values of D1 and both D2s at a few frames around the switch.
+    const int splitFrames[] = { switchFrame - 1, switchFrame + 2, switchFrame + 8,
+      options.Frames - 1 };
+    std::map<std::pair<int, int>, std::vector<std::vector<float>>> splitDisplays; // [method, frame]
+    std::map<int, std::vector<float>> splitReferences;
     // The references' random numbers too depend on the sequence alone (the static view's was
     // rendered above with seed 7919).
     const char* sequenceNames[] = { "static", "orbit", "rotate", "switch" };
@@ -731,6 +737,13 @@ int main(int argc, char* argv[])
           ++a.frames;
           a.previous[0] = display[0];
           a.previous[1] = display[1];
+          if (runs > 1 && m >= 3 &&
+            std::find(std::begin(splitFrames), std::end(splitFrames), frame) !=
+              std::end(splitFrames))
+          {
+            splitDisplays[{ m, frame }].push_back(display[0]);
+            splitReferences[frame] = references[0];
+          }
           if (repetition == 0 && frame == thumbnailFrame && m < ThumbnailMethodCount)
           {
             thumbnails.push_back(display[0]);
@@ -888,6 +901,55 @@ int main(int argc, char* argv[])
         }
         std::printf("\n");
       }
+    }
+    if (sequence == "switch" && runs > 1)
+    {
+      std::printf("\n### Where the error around the switch comes from (left eye, over the %d "
+                  "runs)\n\n| method |",
+        runs);
+      for (int frame : splitFrames)
+      {
+        std::printf(" %+d: bias² / noise (x10^-4) |", frame - switchFrame);
+      }
+      std::printf("\n|---|");
+      for (std::size_t k = 0; k < std::size(splitFrames); ++k)
+      {
+        std::printf("---|");
+      }
+      std::printf("\n");
+      for (int m = 3; m < MethodCount; ++m)
+      {
+        std::printf("| %s |", MethodNames[m]);
+        for (int frame : splitFrames)
+        {
+          const std::vector<std::vector<float>>& displays = splitDisplays[{ m, frame }];
+          const std::vector<float>& reference = splitReferences[frame];
+          const double count = static_cast<double>(displays.size());
+          double bias = 0.0, noise = 0.0;
+          for (std::size_t i = 0; i < reference.size(); ++i)
+          {
+            double mean = 0.0, squares = 0.0;
+            for (const std::vector<float>& display : displays)
+            {
+              mean += display[i] / count;
+            }
+            for (const std::vector<float>& display : displays)
+            {
+              squares += (display[i] - mean) * (display[i] - mean);
+            }
+            const double variance = squares / (count - 1.0);
+            // The squared mean error overstates the bias by the mean's own variance.
+            bias += (mean - reference[i]) * (mean - reference[i]) - variance / count;
+            noise += variance;
+          }
+          const double values = static_cast<double>(reference.size());
+          std::printf(" %.2f / %.2f |", 1e4 * bias / values, 1e4 * noise / values);
+        }
+        std::printf("\n");
+      }
+      std::printf("\nbias²: the squared error of the mean over the runs, less the mean's variance "
+                  "(it includes the reference's own noise); noise: the variance over the runs; "
+                  "their sum is the mean squared error\n");
     }
     std::fflush(stdout);
   }
