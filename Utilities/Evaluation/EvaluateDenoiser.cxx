@@ -742,7 +742,7 @@ int main(int argc, char* argv[])
               std::end(splitFrames))
           {
             splitDisplays[{ m, frame }].push_back(display[0]);
-            splitReferences[frame] = references[0];
+            splitReferences.try_emplace(frame, references[0]); // the same in every run
           }
           if (repetition == 0 && frame == thumbnailFrame && m < ThumbnailMethodCount)
           {

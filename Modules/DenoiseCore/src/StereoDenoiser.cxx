@@ -160,7 +160,8 @@ struct EyeState
   bool hadPrevious = false;
   bool canReplace = false;
   // Frames since the history was relit for a change of light, while its ratio is still being
-  // refined (0: none pending); the next frame's value, and the one the last commit replaced.
+  // refined (0: none pending); the value this frame sets for the next (each frame, before its
+  // commit), and the one the last commit replaced.
   int relightingAge = 0;
   int nextRelightingAge = 0;
   int olderRelightingAge = 0;
@@ -231,7 +232,6 @@ struct EyeState
     this->hasPrevious = false;
     this->canReplace = false;
     this->relightingAge = 0;
-    this->nextRelightingAge = 0;
     this->surface.assign(n, Surface());
     this->previousSurface.assign(n, Surface());
     this->span.assign(static_cast<std::size_t>(h), RowSpan());
@@ -828,7 +828,6 @@ void StereoDenoiser::reset()
     eye.hasPrevious = false;
     eye.canReplace = false;
     eye.relightingAge = 0;
-    eye.nextRelightingAge = 0;
     std::fill(eye.historyInfo.begin(), eye.historyInfo.end(), HistoryInfo());
   }
 }
@@ -1320,8 +1319,9 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           {
             // With probability delta the light is the same and the history stays; otherwise
             // it is relit, its colour scaled by the ratio of the current to the old light
-            // (computeRelightingRatio), and then trusted as a shorter history, since only its
-            // brightness was corrected.
+            // (computeRelightingRatio; the gain is 1 - delta on the frame of the change and
+            // 1/(k+1) on the k-th refinement), and then trusted as a shorter history, since
+            // only its brightness was corrected.
             const glm::vec4 relighting = eye.relightingRatio[i];
             const glm::vec3 ratio = 1.0f + relightingGain[e] * (glm::vec3(relighting) - 1.0f);
             const float oldLuminance = luminance(glm::vec3(history));
