@@ -374,6 +374,7 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.spatialFilter = this->SpatialFilter;
   p.stereoBlend = this->StereoBlend;
   p.demodulateAlbedo = this->DemodulateAlbedo;
+  p.coverageAgreementWidth = static_cast<float>(this->CoverageAgreementWidth);
   p.crossView.albedoSigma = static_cast<float>(this->AlbedoSigma);
   p.crossView.normalSharpness = static_cast<float>(this->NormalSharpness);
   p.crossView.depthSigma = static_cast<float>(this->DepthSigma);
@@ -461,6 +462,7 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "SpatialFilter: " << (this->SpatialFilter ? "On" : "Off") << "\n";
   os << indent << "StereoBlend: " << (this->StereoBlend ? "On" : "Off") << "\n";
   os << indent << "DemodulateAlbedo: " << (this->DemodulateAlbedo ? "On" : "Off") << "\n";
+  os << indent << "CoverageAgreementWidth: " << this->CoverageAgreementWidth << "\n";
   os << indent << "AlbedoSigma: " << this->AlbedoSigma << "\n";
   os << indent << "NormalSharpness: " << this->NormalSharpness << "\n";
   os << indent << "DepthSigma: " << this->DepthSigma << "\n";

@@ -351,3 +351,21 @@ TEST(DenoiseKernels, InlineExponentialMatchesLibm)
     5e-6f * std::exp(-29.0f));
   EXPECT_EQ(waveletWeight(centre, centre, 1.0f, 1.0f + 31.0f, 1.0f, edges), 0.0f);
 }
+
+// The coverage edge-stopping: off at width 0; a translucent neighbour whose coverage differs by
+// one standard deviation weighs e^(-1/(2k^2)), a silhouette's step of 1/2 (6.5 standard
+// deviations of a coverage of 3/4 over 32 frames) under 1 %; coverage at 0 or 1 has no noise
+// to forgive.
+TEST(DenoiseKernels, CoverageSharpness)
+{
+  EXPECT_EQ(coverageSharpness(0.5f, 32.0f, 0.0f), 0.0f);
+  const float frames = 32.0f, width = 2.0f;
+  const float deviation = std::sqrt(0.75f * 0.25f / frames);
+  const float sharpness = coverageSharpness(0.75f, frames, width);
+  EXPECT_NEAR(std::exp(-deviation * deviation * sharpness), std::exp(-1.0f / 8.0f), 1e-5f);
+  EXPECT_LT(std::exp(-0.5f * 0.5f * sharpness), 0.01f);
+  EXPECT_GT(coverageSharpness(1.0f, frames, width), 1e10f);
+  EXPECT_GT(coverageSharpness(1.5f, frames, width), 1e10f); // clamped to [0, 1]
+  // More frames, a less noisy coverage, a sharper term.
+  EXPECT_GT(coverageSharpness(0.75f, 64.0f, width), sharpness);
+}

@@ -92,6 +92,10 @@ class DenoiserPipelineTest(unittest.TestCase):
         self.assertEqual(denoiser.GetRelightingRefinementFrames(), 4)
         self.assertEqual(denoiser.GetMaximumHistoryAngle(), 6.0)
         self.assertFalse(denoiser.GetBicubicHistory())
+        self.assertEqual(denoiser.GetCoverageAgreementWidth(), 2.0)
+        denoiser.SetCoverageAgreementWidth(-1.0)  # clamped: 0 filters coverage like colour
+        self.assertEqual(denoiser.GetCoverageAgreementWidth(), 0.0)
+        denoiser.SetCoverageAgreementWidth(2.0)
         self.assertEqual(denoiser.GetSurfaceJitterTolerance(), 3.0)
         self.assertAlmostEqual(denoiser.GetNormalTestGradient(), 0.3)
         denoiser.SetNormalTestGradient(2.0)  # clamped to a gradient magnitude

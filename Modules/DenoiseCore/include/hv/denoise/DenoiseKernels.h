@@ -255,6 +255,28 @@ HV_FUNCTION float stereoAgreement(
     (2.0f * agreementWidth * agreementWidth * glm::max(varianceSum, 0.0f) + 1e-20f));
 }
 
+// The sharpness of the wavelet filter's coverage edge-stopping term, (a_i - a_j)^2 times
+// this, at a pixel whose colour averages `frames` raw frames: 1 / (2 k^2 v), k =
+// agreementWidth (0: no term), v = a (1 - a) / frames the variance of the pixel's accumulated
+// coverage. A frame's alpha (the radiance is premultiplied) is the fraction of the pixel's
+// paths that scattered in the volume, Bernoulli trials whose variance is at most a (1 - a),
+// for one path; a is the 3x3 mean coverage, so that a pixel that all of its few paths hit by
+// chance is not taken for an opaque one. Inside translucent material neighbours differ in
+// coverage by about sqrt(2 v), noise the filter should average; at the volume's silhouette
+// coverage steps from 1 to 0 within a pixel or two, many standard deviations, and averaging it
+// would give partly covered pixels their covered neighbours' light (a bright rim) and those
+// their darkness.
+HV_FUNCTION float coverageSharpness(float coverage, float frames, float agreementWidth)
+{
+  if (!(agreementWidth > 0.0f))
+  {
+    return 0.0f;
+  }
+  const float a = clampf(coverage, 0.0f, 1.0f);
+  const float variance = a * (1.0f - a) / glm::max(frames, 1.0f);
+  return 1.0f / (2.0f * agreementWidth * agreementWidth * variance + 1e-12f);
+}
+
 // Albedo demodulation (Schied et al. 2017): filtering the incident-light factor keeps texture
 // detail that the filter would otherwise blur. Channels with (almost) no albedo keep the
 // radiance as is, which re-modulation then reverses exactly.
@@ -279,12 +301,13 @@ HV_FUNCTION glm::vec4 remodulate(const glm::vec4& signal, const glm::vec3& albed
 // albedo as in zeta, and luminance relative to the standard deviation of the filtered value.
 // The arguments are the channels of both surfaces, so that the CPU filter can keep them in
 // planes (one array per channel) and evaluate a row of taps as vectors.
-// inverseTwoAlbedoSigmaSquared = 1 / (2 sigma_albedo^2).
+// inverseTwoAlbedoSigmaSquared = 1 / (2 sigma_albedo^2); coverageTerm, the coverage edge-
+// stopping (a_i - a_j)^2 coverageSharpness(...), adds to the exponent.
 HV_FUNCTION float waveletWeightOfChannels(float centreDepth, float centreSpread,
   float centreGradient, const glm::vec3& centreNormal, const glm::vec3& centreAlbedo,
   float centreLuminance, float luminanceScale, float tapDepth, float tapSpread, float tapGradient,
   const glm::vec3& tapNormal, const glm::vec3& tapAlbedo, float tapLuminance,
-  float inverseTwoAlbedoSigmaSquared, const EdgeStopping& e)
+  float inverseTwoAlbedoSigmaSquared, const EdgeStopping& e, float coverageTerm = 0.0f)
 {
   const glm::vec3 albedoDifference = centreAlbedo - tapAlbedo;
   const float albedoTerm =
@@ -302,7 +325,7 @@ HV_FUNCTION float waveletWeightOfChannels(float centreDepth, float centreSpread,
   // is computed and then dropped normal too. The cut-off is a product with 0 or 1, not a
   // select of two values: GCC 12 if-converts the select for SSE2 but, for AVX2 and AVX-512,
   // leaves a branch that keeps the whole wavelet loop scalar (2.2x slower than SSE2).
-  const float exponent = albedoTerm + normalTerm + depthTerm + luminanceTerm;
+  const float exponent = albedoTerm + normalTerm + depthTerm + luminanceTerm + coverageTerm;
   const float keep = exponent < 30.0f ? 1.0f : 0.0f;
   return keep * exponentialOfNegative(glm::min(exponent, 30.0f));
 }

@@ -45,6 +45,16 @@ struct DenoiserParameters
   bool spatialFilter = true;        // D1: the edge-aware a-trous wavelet filter
   bool stereoBlend = true;          // D2
   bool demodulateAlbedo = true;     // filter radiance / albedo, re-modulate after
+  // The radiance is premultiplied, and at the volume's silhouette a pixel's alpha (coverage)
+  // is the fraction of its paths that scattered in the volume. Averaged by the wavelet filter,
+  // partly covered pixels took in the light of fully covered neighbours and gave them their
+  // darkness: a bright rim outside, a dark ring inside. The filter's edge-stopping therefore
+  // includes the coverage: taps whose coverage differs from the pixel's by more than this many
+  // standard deviations of its noise weigh little (coverageSharpness); translucent material,
+  // whose coverage differs only by noise, is still averaged. 0: no coverage term. On the head
+  // MRI at 96x62 the pixels within a pixel of the silhouette held over half of the denoiser's
+  // squared error without it; with it the still view's frame 16 went from raw 86 to 153 spp.
+  float coverageAgreementWidth = 2.0f;
 
   EdgeStopping crossView; // zeta of the cross-view samples
   // zeta of w_v. Looser than the cross-view one: the history weight compounds over frames
