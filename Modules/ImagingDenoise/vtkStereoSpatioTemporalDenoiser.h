@@ -309,9 +309,9 @@ public:
    * average; a larger difference is the view dependence of the light (the eyes see a point
    * some degrees apart), interpolation or a wrong correspondence, which lambda ~ 0.5 would
    * turn into a bias in both eyes. 0 is the paper's D2. Default 3: on the head MRI at the
-   * headset's 1440x936 a still view reaches raw 272 spp at frame 16 (D1 alone 269, the paper's
-   * D2 223) with as small an inter-eye error difference, while the noise discrepancy falls
-   * 1.7-2.6x instead of the paper's 2.4-3.3x (Documentation/Denoising.md).
+   * headset's 1440x936 a still view reaches raw 384 spp at frame 16 (D1 alone 388, the paper's
+   * D2 286) with a smaller inter-eye error difference, while the noise discrepancy falls
+   * 1.7-2.5x instead of the paper's 2.2-3.1x (Documentation/Denoising.md).
    */
   vtkSetClampMacro(StereoAgreementWidth, double, 0.0, 100.0);
   vtkGetMacro(StereoAgreementWidth, double);

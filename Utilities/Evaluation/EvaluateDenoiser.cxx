@@ -78,11 +78,14 @@ head MRI under a real HDR panorama. Prints a Markdown table per sequence.
 
 // The methods (the full denoiser with its defaults, which include the noise test of
 // the other eye's value in D2, vtkStereoSpatioTemporalDenoiser::SetStereoAgreementWidth), then
-// the paper's D2 without that test, which the thumbnails leave out.
-constexpr int MethodCount = 6;
+// two ablations that the thumbnails leave out: the paper's D2 without that test, and the full
+// denoiser whose wavelet filter averages coverage like the colour (SetCoverageAgreementWidth).
+constexpr int MethodCount = 7;
 constexpr int ThumbnailMethodCount = 5;
+constexpr int FullMethod = 4;
+constexpr int CoverageFilteredMethod = 6;
 const char* MethodNames[MethodCount] = { "raw 2 spp", "spatial only", "temporal only", "D1",
-  "D1 + D2 (full)", "D1 + D2, paper's lambda alone" };
+  "D1 + D2 (full)", "D1 + D2, paper's lambda alone", "D1 + D2, coverage filtered like colour" };
 
 std::vector<float> Display(vtkImageData* image)
 {
@@ -251,26 +254,109 @@ int FramesToRecover(const std::vector<double>& psnrPerFrame, int switchFrame)
   return -1;
 }
 
-void WriteStrip(const std::string& path, const std::vector<std::vector<float>>& images, int width,
-  int height)
+// Display RGB (row 0 at the bottom) as an 8-bit BGR image, top row first.
+cv::Mat DisplayToBGR(const std::vector<float>& image, int width, int height)
 {
-  cv::Mat strip(height, width * static_cast<int>(images.size()), CV_8UC3);
-  for (std::size_t k = 0; k < images.size(); ++k)
+  cv::Mat bgr(height, width, CV_8UC3);
+  for (int y = 0; y < height; ++y)
   {
+    for (int x = 0; x < width; ++x)
+    {
+      const std::size_t i = static_cast<std::size_t>(height - 1 - y) * width + x;
+      for (int c = 0; c < 3; ++c)
+      {
+        bgr.at<cv::Vec3b>(y, x)[2 - c] =
+          static_cast<unsigned char>(std::clamp(image[3 * i + c], 0.0f, 1.0f) * 255.0f + 0.5f);
+      }
+    }
+  }
+  return bgr;
+}
+
+// A window on the left silhouette of what the reference (the last image) shows, magnified
+// with square pixels so that a rim of a pixel or two is visible: the images side by side, and
+// below the first two their signed error against the reference, 8 times amplified (red: too
+// bright, blue: too dark; mean of the display RGB).
+void WriteSilhouetteCloseUp(
+  const std::string& path, const std::vector<float> (&images)[3], int width, int height)
+{
+  for (const std::vector<float>& image : images)
+  {
+    if (image.empty())
+    {
+      return;
+    }
+  }
+  const cv::Mat reference = DisplayToBGR(images[2], width, height);
+  cv::Mat gray, seen;
+  cv::cvtColor(reference, gray, cv::COLOR_BGR2GRAY);
+  cv::threshold(gray, seen, 8, 255, cv::THRESH_BINARY);
+  const cv::Rect object = cv::boundingRect(seen);
+  if (object.empty())
+  {
+    return;
+  }
+  const int windowWidth = std::max(16, width / 5);
+  const int windowHeight = std::max(12, windowWidth * 2 / 3);
+  const cv::Rect window =
+    cv::Rect(object.x - windowWidth / 3, object.y + object.height / 2 - windowHeight / 2,
+      windowWidth, windowHeight) &
+    cv::Rect(0, 0, width, height);
+  const int scale = std::max(1, 320 / windowWidth);
+  auto magnified = [&](const cv::Mat& image)
+  {
+    cv::Mat panel;
+    cv::resize(image(window), panel, cv::Size(), scale, scale, cv::INTER_NEAREST);
+    return panel;
+  };
+  auto errorImage = [&](const std::vector<float>& image)
+  {
+    cv::Mat error(height, width, CV_8UC3);
     for (int y = 0; y < height; ++y)
     {
       for (int x = 0; x < width; ++x)
       {
         const std::size_t i = static_cast<std::size_t>(height - 1 - y) * width + x;
+        float difference = 0.0f;
         for (int c = 0; c < 3; ++c)
         {
-          strip.at<cv::Vec3b>(y, static_cast<int>(k) * width + x)[2 - c] =
-            static_cast<unsigned char>(std::clamp(images[k][3 * i + c], 0.0f, 1.0f) * 255.0f + 0.5f);
+          difference += (image[3 * i + c] - images[2][3 * i + c]) / 3.0f;
         }
+        const float level = std::clamp(8.0f * difference, -1.0f, 1.0f);
+        error.at<cv::Vec3b>(y, x) =
+          cv::Vec3b(static_cast<unsigned char>(255.0f * std::max(-level, 0.0f)), 0,
+            static_cast<unsigned char>(255.0f * std::max(level, 0.0f)));
       }
     }
+    return error;
+  };
+  const cv::Mat separator(window.height * scale, 4, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::Mat top, bottom, figure;
+  cv::hconcat(
+    std::vector<cv::Mat>{ magnified(DisplayToBGR(images[0], width, height)), separator,
+      magnified(DisplayToBGR(images[1], width, height)), separator, magnified(reference) },
+    top);
+  cv::hconcat(
+    std::vector<cv::Mat>{ magnified(errorImage(images[0])), separator,
+      magnified(errorImage(images[1])), separator,
+      cv::Mat(window.height * scale, window.width * scale, CV_8UC3, cv::Scalar(0, 0, 0)) },
+    bottom);
+  cv::vconcat(
+    std::vector<cv::Mat>{ top, cv::Mat(4, top.cols, CV_8UC3, cv::Scalar(255, 255, 255)), bottom },
+    figure);
+  cv::imwrite(path, figure);
+}
+
+void WriteStrip(
+  const std::string& path, const std::vector<std::vector<float>>& images, int width, int height)
+{
+  std::vector<cv::Mat> panels;
+  for (const std::vector<float>& image : images)
+  {
+    panels.push_back(DisplayToBGR(image, width, height));
   }
-  cv::Mat scaled;
+  cv::Mat strip, scaled;
+  cv::hconcat(panels, strip);
   cv::resize(strip, scaled, cv::Size(), 2.0, 2.0, cv::INTER_NEAREST);
   cv::imwrite(path, scaled);
 }
@@ -577,6 +663,9 @@ int main(int argc, char* argv[])
       sequence == "switch" ? WithLamp(baseEnvironment) : nullptr;
     Reference switchReference[2]; // [lamp]
     std::vector<std::vector<float>> thumbnails;
+    // Left eye at the thumbnail frame: coverage filtered like the colour, the full denoiser,
+    // the reference, for the close-up of the silhouette.
+    std::vector<float> silhouette[3];
     const int thumbnailFrame = sequence == "static" ? std::min(15, options.Frames - 1)
       : sequence == "switch"                        ? switchFrame + 1
                                                     : options.Frames - 1;
@@ -617,6 +706,7 @@ int main(int argc, char* argv[])
         run[2]->SetClampWidth(0.0);
         run[3]->StereoBlendOff();
         run[5]->SetStereoAgreementWidth(0.0);
+        run[CoverageFilteredMethod]->SetCoverageAgreementWidth(0.0);
       }
       vtkNew<vtkEnvironmentSyncedLight> light;
       light->SetInputDynamicRange(vtkEnvironmentSyncedLight::HIGH_DYNAMIC_RANGE);
@@ -748,6 +838,11 @@ int main(int argc, char* argv[])
           {
             thumbnails.push_back(display[0]);
           }
+          if (repetition == 0 && frame == thumbnailFrame &&
+            (m == CoverageFilteredMethod || m == FullMethod))
+          {
+            silhouette[m == FullMethod ? 1 : 0] = display[0];
+          }
         }
         if (repetition > 0)
         {
@@ -768,6 +863,7 @@ int main(int argc, char* argv[])
         if (frame == thumbnailFrame)
         {
           thumbnails.push_back(references[0]);
+          silhouette[2] = references[0];
         }
         std::cerr << ".";
       }
@@ -778,6 +874,11 @@ int main(int argc, char* argv[])
     {
       WriteStrip(options.Images + "/denoise-" + sequence + ".png", thumbnails, options.Width,
         options.Height);
+      if (sequence == "static")
+      {
+        WriteSilhouetteCloseUp(
+          options.Images + "/denoise-silhouette.png", silhouette, options.Width, options.Height);
+      }
     }
 
     const double referenceFlickerMean =

@@ -129,10 +129,10 @@ struct DenoiserParameters
   float stereoBeta = 2.0f;  // beta of D2's lambda
   // Beyond the paper: D2 blends the other eye only as far as the eyes' D1 values agree within
   // this many standard deviations of their noise (stereoAgreement); 0: the paper's lambda
-  // alone. On the head MRI at 1440x936 the paper's D2 loses 17 % of D1's equal-quality spp
-  // (still view at frame 16: raw 223 against 269); with 3 D2 gains instead (272) and the eyes'
-  // error difference stays as small, but their noise discrepancy falls 1.7-2.6x instead of
-  // 2.4-3.3x: what it no longer averages is real difference between the views.
+  // alone. On the head MRI at 1440x936 the paper's D2 loses 26 % of D1's equal-quality spp
+  // (still view at frame 16: raw 286 against 388); with 3 D2 loses 1 % (384) and the eyes'
+  // error difference is smaller, but their noise discrepancy falls 1.7-2.5x instead of
+  // 2.2-3.1x: what it no longer averages is real difference between the views.
   float stereoAgreementWidth = 3.0f;
 };
 
