@@ -254,6 +254,52 @@ int FramesToRecover(const std::vector<double>& psnrPerFrame, int switchFrame)
   return -1;
 }
 
+// Whether a display pixel shows nothing (no volume; the evaluation's background is black).
+bool IsEmpty(const std::vector<float>& image, std::size_t pixel)
+{
+  return image[3 * pixel] + image[3 * pixel + 1] + image[3 * pixel + 2] <= 3e-4f;
+}
+
+// The pixels at the volume's silhouette: their 3x3 neighbourhood holds both pixels that show
+// the volume and empty ones (the rim of the volume and the empty pixels next to it).
+std::vector<bool> SilhouetteBand(const std::vector<float>& image, int width, int height)
+{
+  std::vector<bool> band(static_cast<std::size_t>(width) * height, false);
+  for (int y = 0; y < height; ++y)
+  {
+    for (int x = 0; x < width; ++x)
+    {
+      bool empty = false, seen = false;
+      for (int dy = -1; dy <= 1; ++dy)
+      {
+        for (int dx = -1; dx <= 1; ++dx)
+        {
+          const int nx = x + dx, ny = y + dy;
+          if (nx >= 0 && ny >= 0 && nx < width && ny < height)
+          {
+            (IsEmpty(image, static_cast<std::size_t>(ny) * width + nx) ? empty : seen) = true;
+          }
+        }
+      }
+      band[static_cast<std::size_t>(y) * width + x] = empty && seen;
+    }
+  }
+  return band;
+}
+
+// The silhouette band's pixels over those that show the volume.
+double SilhouetteBandFraction(const std::vector<float>& image, int width, int height)
+{
+  const std::vector<bool> band = SilhouetteBand(image, width, height);
+  std::size_t inBand = 0, seen = 0;
+  for (std::size_t i = 0; i < band.size(); ++i)
+  {
+    inBand += band[i] ? 1 : 0;
+    seen += IsEmpty(image, i) ? 0 : 1;
+  }
+  return seen ? static_cast<double>(inBand) / static_cast<double>(seen) : 0.0;
+}
+
 // Display RGB (row 0 at the bottom) as an 8-bit BGR image, top row first.
 cv::Mat DisplayToBGR(const std::vector<float>& image, int width, int height)
 {
@@ -288,9 +334,15 @@ void WriteSilhouetteCloseUp(
     }
   }
   const cv::Mat reference = DisplayToBGR(images[2], width, height);
-  cv::Mat gray, seen;
-  cv::cvtColor(reference, gray, cv::COLOR_BGR2GRAY);
-  cv::threshold(gray, seen, 8, 255, cv::THRESH_BINARY);
+  cv::Mat seen(height, width, CV_8U);
+  for (int y = 0; y < height; ++y)
+  {
+    for (int x = 0; x < width; ++x)
+    {
+      seen.at<unsigned char>(y, x) =
+        IsEmpty(images[2], static_cast<std::size_t>(height - 1 - y) * width + x) ? 0 : 255;
+    }
+  }
   const cv::Rect object = cv::boundingRect(seen);
   if (object.empty())
   {
@@ -1010,7 +1062,8 @@ int main(int argc, char* argv[])
         runs);
       for (int frame : splitFrames)
       {
-        std::printf(" %+d: bias² / noise (x10^-4) |", frame - switchFrame);
+        std::printf(
+          " %+d: bias² / noise (x10^-4), silhouette's share of bias² |", frame - switchFrame);
       }
       std::printf("\n|---|");
       for (std::size_t k = 0; k < std::size(splitFrames); ++k)
@@ -1026,7 +1079,8 @@ int main(int argc, char* argv[])
           const std::vector<std::vector<float>>& displays = splitDisplays[{ m, frame }];
           const std::vector<float>& reference = splitReferences[frame];
           const double count = static_cast<double>(displays.size());
-          double bias = 0.0, noise = 0.0;
+          const std::vector<bool> band = SilhouetteBand(reference, options.Width, options.Height);
+          double bias = 0.0, noise = 0.0, bandBias = 0.0;
           for (std::size_t i = 0; i < reference.size(); ++i)
           {
             double mean = 0.0, squares = 0.0;
@@ -1040,17 +1094,26 @@ int main(int argc, char* argv[])
             }
             const double variance = squares / (count - 1.0);
             // The squared mean error overstates the bias by the mean's own variance.
-            bias += (mean - reference[i]) * (mean - reference[i]) - variance / count;
+            const double pixelBias =
+              (mean - reference[i]) * (mean - reference[i]) - variance / count;
+            bias += pixelBias;
+            bandBias += band[i / 3] ? pixelBias : 0.0;
             noise += variance;
           }
           const double values = static_cast<double>(reference.size());
-          std::printf(" %.2f / %.2f |", 1e4 * bias / values, 1e4 * noise / values);
+          std::printf(" %.2f / %.2f, %.0f %% |", 1e4 * bias / values, 1e4 * noise / values,
+            100.0 * bandBias / bias);
         }
         std::printf("\n");
       }
       std::printf("\nbias²: the squared error of the mean over the runs, less the mean's variance "
                   "(it includes the reference's own noise); noise: the variance over the runs; "
-                  "their sum is the mean squared error\n");
+                  "their sum is the mean squared error; the silhouette: the pixels whose 3x3 "
+                  "neighbourhood in the reference holds both the volume and empty space "
+                  "(%.0f %% of those that see the volume at the last frame)\n",
+        100.0 *
+          SilhouetteBandFraction(splitReferences[splitFrames[std::size(splitFrames) - 1]],
+            options.Width, options.Height));
     }
     std::fflush(stdout);
   }

@@ -697,11 +697,13 @@ TEST(StereoDenoiser, SilhouetteKeepsItsCoverage)
       std::string error;
       EXPECT_TRUE(denoiser.denoise(&frame, 1, 0.0f, out, error)) << error;
     }
-    const double rimReference = 0.5 * columnSum(eye.reference, rim) / (silhouette ? 0.5 : 1.0);
+    // The whole wall's columns count at the silhouette's coverage of them: 1, 1/2, 0.
+    constexpr double silhouetteCoverage[3] = { 1.0, 0.5, 0.0 };
+    const double rimReference = (silhouette ? 1.0 : 0.5) * columnSum(eye.reference, rim);
     glm::dvec3 columns;
     for (int k = 0; k < 3; ++k)
     {
-      const double scale = !silhouette && k > 0 ? (k == 1 ? 0.5 : 0.0) : 1.0;
+      const double scale = silhouette ? 1.0 : silhouetteCoverage[k];
       columns[k] = scale * columnSum(output, rim - 1 + k) / rimReference;
     }
     return columns;
