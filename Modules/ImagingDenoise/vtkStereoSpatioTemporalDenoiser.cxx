@@ -375,6 +375,7 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.stereoBlend = this->StereoBlend;
   p.demodulateAlbedo = this->DemodulateAlbedo;
   p.coverageAgreementWidth = static_cast<float>(this->CoverageAgreementWidth);
+  p.crossViewCoverageWidth = static_cast<float>(this->CrossViewCoverageWidth);
   p.crossView.albedoSigma = static_cast<float>(this->AlbedoSigma);
   p.crossView.normalSharpness = static_cast<float>(this->NormalSharpness);
   p.crossView.depthSigma = static_cast<float>(this->DepthSigma);
@@ -463,6 +464,7 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "StereoBlend: " << (this->StereoBlend ? "On" : "Off") << "\n";
   os << indent << "DemodulateAlbedo: " << (this->DemodulateAlbedo ? "On" : "Off") << "\n";
   os << indent << "CoverageAgreementWidth: " << this->CoverageAgreementWidth << "\n";
+  os << indent << "CrossViewCoverageWidth: " << this->CrossViewCoverageWidth << "\n";
   os << indent << "AlbedoSigma: " << this->AlbedoSigma << "\n";
   os << indent << "NormalSharpness: " << this->NormalSharpness << "\n";
   os << indent << "DepthSigma: " << this->DepthSigma << "\n";

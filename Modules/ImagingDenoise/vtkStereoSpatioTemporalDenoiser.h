@@ -130,6 +130,20 @@ public:
 
   ///@{
   /**
+   * Coverage in the cross-view samples. The other eye's samples bring that eye's coverage
+   * with them, and at the silhouette the eyes see the edge from two sides: the right eye sees
+   * further round the volume's right side. Those samples count only as far as the two eyes'
+   * accumulated coverages at the point (their histories, found through the previous frame's
+   * corresponding pixels) agree within CrossViewCoverageWidth standard deviations of their
+   * noise. Default 1; 0 takes the other eye's samples whatever their coverage, which left the
+   * silhouette too bright on one side and too dark on the other.
+   */
+  vtkSetClampMacro(CrossViewCoverageWidth, double, 0.0, 100.0);
+  vtkGetMacro(CrossViewCoverageWidth, double);
+  ///@}
+
+  ///@{
+  /**
    * zeta, the bilateral weight of the cross-view samples and of w_v:
    * exp(-|d albedo|^2 / (2 AlbedoSigma^2) - NormalSharpness (1 - n.n') min(g, g')
    * - |dz| / (DepthSigma z)). Defaults 0.1, 16, 0.02.
@@ -366,6 +380,7 @@ protected:
   bool StereoBlend = true;
   bool DemodulateAlbedo = true;
   double CoverageAgreementWidth = 2.0;
+  double CrossViewCoverageWidth = 1.0;
   double AlbedoSigma = 0.1;
   double NormalSharpness = 16.0;
   double DepthSigma = 0.02;

@@ -369,3 +369,25 @@ TEST(DenoiseKernels, CoverageSharpness)
   // More frames, a less noisy coverage, a sharper term.
   EXPECT_GT(coverageSharpness(0.75f, 64.0f, width), sharpness);
 }
+
+TEST(DenoiseKernels, CrossViewCoverage)
+{
+  // Off, or coverages that agree: the other eye's samples count fully.
+  EXPECT_EQ(crossViewCoverage(1.0f, 32.0f, 0.4f, 32.0f, 0.0f), 1.0f);
+  EXPECT_FLOAT_EQ(crossViewCoverage(0.6f, 16.0f, 0.6f, 8.0f, 1.0f), 1.0f);
+  EXPECT_FLOAT_EQ(crossViewCoverage(1.0f, 32.0f, 1.0f, 32.0f, 1.0f), 1.0f); // opaque in both
+  // Histories of 32 and 16 frames whose coverages differ by d: e^(-d^2 / (2 k^2 v)), v the sum
+  // of their Bernoulli variances.
+  const float a = 0.7f, b = 0.6f;
+  const float variance = a * (1.0f - a) / 32.0f + b * (1.0f - b) / 16.0f;
+  EXPECT_NEAR(crossViewCoverage(a, 32.0f, b, 16.0f, 2.0f),
+    std::exp(-(a - b) * (a - b) / (8.0f * variance)), 1e-5f);
+  // A silhouette seen from two sides (full coverage in one eye, half in the other, over long
+  // histories) stops the other eye's samples; short histories make the same step less certain.
+  EXPECT_LT(crossViewCoverage(1.0f, 32.0f, 0.5f, 32.0f, 1.0f), 1e-6f);
+  EXPECT_GT(crossViewCoverage(1.0f, 1.0f, 0.5f, 1.0f, 1.0f),
+    crossViewCoverage(1.0f, 32.0f, 0.5f, 32.0f, 1.0f));
+  // Symmetric in the eyes.
+  EXPECT_FLOAT_EQ(crossViewCoverage(0.9f, 8.0f, 0.5f, 4.0f, 1.0f),
+    crossViewCoverage(0.5f, 4.0f, 0.9f, 8.0f, 1.0f));
+}

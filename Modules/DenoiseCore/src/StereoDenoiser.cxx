@@ -1164,23 +1164,13 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         float weightSum = 1.0f;
         if (s.kind != SurfaceNone && p.crossViewSamples)
         {
+          // The previous frame's corresponding pixels first: k_L^{t-1}, and k_R^{t-1} through
+          // the point stored there.
           glm::vec2 pixel;
           float depth;
-          if (stereo &&
-            projectToPixel(
-              other.viewProjection, other.view, width, height, s.firstScatterPosition, pixel, depth))
-          {
-            const int q = nearestPixel(pixel, width);
-            const Surface& stored = other.surface[q];
-            if (consistentSurface(stored, depth, s.normal, s.gradientMagnitude, s.depthSpread,
-                  p.depthTolerance, p.normalCosine, p.normalTestGradient))
-            {
-              const float w = bilateralWeight(asSeenFrom(s, depth), stored, p.crossView);
-              sum += w * other.raw[q];
-              weightSum += w;
-            }
-          }
-          if (gate > 0.0f && eye.hasPrevious &&
+          int previousOwn = -1, previousOther = -1;
+          float previousOwnDepth = 0.0f, previousOtherDepth = 0.0f;
+          if (eye.hasPrevious &&
             projectToPixel(eye.previousViewProjection, eye.previousView, width, height,
               glm::vec3(eye.toPreviousWorld * glm::vec4(s.firstScatterPosition, 1.0f)), pixel,
               depth))
@@ -1190,9 +1180,8 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
             if (consistentSurface(stored, depth, s.normal, s.gradientMagnitude, s.depthSpread,
                   p.depthTolerance, p.normalCosine, p.normalTestGradient))
             {
-              const float w = gate * bilateralWeight(asSeenFrom(s, depth), stored, p.crossView);
-              sum += w * eye.previousRaw[q];
-              weightSum += w;
+              previousOwn = q;
+              previousOwnDepth = depth;
               glm::vec2 otherPixel;
               float otherDepth;
               if (stereo && other.hasPrevious &&
@@ -1200,17 +1189,54 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
                   stored.firstScatterPosition, otherPixel, otherDepth))
               {
                 const int r = nearestPixel(otherPixel, width);
-                const Surface& otherStored = other.previousSurface[r];
-                if (consistentSurface(otherStored, otherDepth, stored.normal,
+                if (consistentSurface(other.previousSurface[r], otherDepth, stored.normal,
                       stored.gradientMagnitude, stored.depthSpread, p.depthTolerance,
                       p.normalCosine, p.normalTestGradient))
                 {
-                  const float wr =
-                    gate * bilateralWeight(asSeenFrom(s, otherDepth), otherStored, p.crossView);
-                  sum += wr * other.previousRaw[r];
-                  weightSum += wr;
+                  previousOther = r;
+                  previousOtherDepth = otherDepth;
                 }
               }
+            }
+          }
+          // The other eye's samples carry its coverage. At the silhouette the eyes' parallax
+          // makes that coverage differ from this pixel's by more than noise (the right eye sees
+          // further round the right side), and they would bias the edge: they count only as far
+          // as the two eyes' accumulated coverages at the point agree (crossViewCoverage).
+          const float otherEyeWeight = previousOther < 0
+            ? 1.0f
+            : crossViewCoverage(eye.history[previousOwn].w,
+                eye.historyInfo[previousOwn].sampleCount, other.history[previousOther].w,
+                other.historyInfo[previousOther].sampleCount, p.crossViewCoverageWidth);
+          if (stereo &&
+            projectToPixel(other.viewProjection, other.view, width, height, s.firstScatterPosition,
+              pixel, depth))
+          {
+            const int q = nearestPixel(pixel, width);
+            const Surface& stored = other.surface[q];
+            if (consistentSurface(stored, depth, s.normal, s.gradientMagnitude, s.depthSpread,
+                  p.depthTolerance, p.normalCosine, p.normalTestGradient))
+            {
+              const float w =
+                otherEyeWeight * bilateralWeight(asSeenFrom(s, depth), stored, p.crossView);
+              sum += w * other.raw[q];
+              weightSum += w;
+            }
+          }
+          if (gate > 0.0f && previousOwn >= 0)
+          {
+            const Surface& stored = eye.previousSurface[previousOwn];
+            const float w =
+              gate * bilateralWeight(asSeenFrom(s, previousOwnDepth), stored, p.crossView);
+            sum += w * eye.previousRaw[previousOwn];
+            weightSum += w;
+            if (previousOther >= 0)
+            {
+              const float wr = gate * otherEyeWeight *
+                bilateralWeight(asSeenFrom(s, previousOtherDepth),
+                  other.previousSurface[previousOther], p.crossView);
+              sum += wr * other.previousRaw[previousOther];
+              weightSum += wr;
             }
           }
         }

@@ -96,6 +96,10 @@ class DenoiserPipelineTest(unittest.TestCase):
         denoiser.SetCoverageAgreementWidth(-1.0)  # clamped: 0 filters coverage like colour
         self.assertEqual(denoiser.GetCoverageAgreementWidth(), 0.0)
         denoiser.SetCoverageAgreementWidth(2.0)
+        self.assertEqual(denoiser.GetCrossViewCoverageWidth(), 1.0)
+        denoiser.SetCrossViewCoverageWidth(-3.0)  # clamped: 0 takes the other eye as it is
+        self.assertEqual(denoiser.GetCrossViewCoverageWidth(), 0.0)
+        denoiser.SetCrossViewCoverageWidth(1.0)
         self.assertEqual(denoiser.GetSurfaceJitterTolerance(), 3.0)
         self.assertAlmostEqual(denoiser.GetNormalTestGradient(), 0.3)
         denoiser.SetNormalTestGradient(2.0)  # clamped to a gradient magnitude

@@ -277,6 +277,26 @@ HV_FUNCTION float coverageSharpness(float coverage, float frames, float agreemen
   return 1.0f / (2.0f * agreementWidth * agreementWidth * variance + 1e-12f);
 }
 
+// How far the other eye's samples may count in a pixel's cross-view filtering, given the two
+// eyes' accumulated coverages at the point (the alpha of their histories, which average
+// `samples` and `otherSamples` raw frames): e^(-d^2 / (2 k^2 v)), d the difference of the
+// coverages, v = a (1 - a) / n + b (1 - b) / m the sum of their variances (Bernoulli trials, one
+// path per frame counted), k = agreementWidth (0: always 1). The radiance is premultiplied, so a
+// sample brings its eye's coverage along. At the volume's silhouette the eyes see the edge from
+// two sides (parallax) and their coverages there differ systematically, which biased the edge
+// one-sidedly; inside translucent material they differ by noise only.
+HV_FUNCTION float crossViewCoverage(
+  float coverage, float samples, float otherCoverage, float otherSamples, float agreementWidth)
+{
+  const float a = clampf(coverage, 0.0f, 1.0f);
+  const float b = clampf(otherCoverage, 0.0f, 1.0f);
+  const float variance =
+    a * (1.0f - a) / glm::max(samples, 1.0f) + b * (1.0f - b) / glm::max(otherSamples, 1.0f);
+  const float agreement = exponentialOfNegative(
+    (a - b) * (a - b) / (2.0f * agreementWidth * agreementWidth * variance + 1e-12f));
+  return agreementWidth > 0.0f ? agreement : 1.0f;
+}
+
 // Albedo demodulation (Schied et al. 2017): filtering the incident-light factor keeps texture
 // detail that the filter would otherwise blur. Channels with (almost) no albedo keep the
 // radiance as is, which re-modulation then reverses exactly.
