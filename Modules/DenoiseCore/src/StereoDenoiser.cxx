@@ -1150,6 +1150,9 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
   // 2. D1's cross-view samples: k_R^t = pi_R^t(x(k_L^t)), k_L^{t-1} = pi_L^{t-1}(x(k_L^t)),
   // k_R^{t-1} = pi_R^{t-1}(x(k_L^{t-1})) (Eq. 2), each weighted by zeta; the previous frame's
   // samples also by delta(1/(T-1)), since they saw the old lighting.
+  // The previous frame's corresponding pixels give samples while the light is the same
+  // (gate > 0), and the eyes' accumulated coverages for the other eye's samples in stereo.
+  const bool usePreviousFrame = gate > 0.0f || (stereo && p.crossViewCoverageWidth > 0.0f);
   stageStart = Clock::now();
   impl.forSpans(eyeCount, height,
     [&](int e, int y, int begin, int end) HV_WIDEST_VECTORS
@@ -1170,7 +1173,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           float depth;
           int previousOwn = -1, previousOther = -1;
           float previousOwnDepth = 0.0f, previousOtherDepth = 0.0f;
-          if (eye.hasPrevious &&
+          if (usePreviousFrame && eye.hasPrevious &&
             projectToPixel(eye.previousViewProjection, eye.previousView, width, height,
               glm::vec3(eye.toPreviousWorld * glm::vec4(s.firstScatterPosition, 1.0f)), pixel,
               depth))
