@@ -731,6 +731,7 @@ int main(int argc, char* argv[])
     std::cerr << "sequence " << sequence;
     Accumulator results[MethodCount];
     Accumulator referenceFlicker;
+    std::size_t pairCount = 0, centredPairCount = 0; // over the frames of the first run
     std::vector<double> illuminationDifferences;
     const int switchFrame = options.Frames / 2;
     vtkSmartPointer<vtkImageData> lampOn =
@@ -938,6 +939,8 @@ int main(int argc, char* argv[])
         }
         referenceFlicker.previous[0] = references[0];
         referenceFlicker.previous[1] = references[1];
+        pairCount += pairs.size();
+        centredPairCount += centredPairs.size();
         if (frame == thumbnailFrame)
         {
           thumbnails.push_back(references[0]);
@@ -1040,11 +1043,12 @@ int main(int argc, char* argv[])
                 "noise discrepancy: RMS of the difference of the eyes' noise at corresponding "
                 "pixels (from a second run with independent random numbers), over all pairs and "
                 "over those whose point lies within a quarter pixel of the right pixel's centre "
-                "(the others also count how the image changes over up to half a pixel); "
-                "error difference: "
-                "RMS of the difference of the eyes' errors there (noise, bias and the references' "
-                "own noise)\n",
-      referenceFlickerMean);
+                "(%.0f %% of them here; the others also count how the image changes over up to "
+                "half a pixel); error difference: RMS of the difference of the eyes' errors there "
+                "(noise, bias and the references' own noise)\n",
+      referenceFlickerMean,
+      pairCount ? 100.0 * static_cast<double>(centredPairCount) / static_cast<double>(pairCount)
+                : 0.0);
     if (sequence == "switch")
     {
       // The PSNR around the lamp, with the standard error of the mean over the runs: what

@@ -42,10 +42,15 @@ __global__ void stereoBlendKernel(const Surface* left, const Surface* right,
         stereoAgreement(
           luminance(glm::vec3(value)) - luminance(glm::vec3(rightD1[q])), 0.01f, 3.0f);
       value = (1.0f - otherWeight) * value + otherWeight * rightD1[q];
-      w = glm::vec4(bilateralWeight(s, right[q], edges),
+      // The other eye's weight in the cross-view samples, and the wavelet filter's coverage
+      // sharpness, as the CPU path computes them.
+      w = glm::vec4(bilateralWeight(s, right[q], edges) *
+          crossViewCoverage(leftD1[i].w, 8.0f, rightD1[q].w, 8.0f, 1.0f) *
+          exponentialOfNegative(coverageSharpness(leftD1[i].w, 8.0f, 2.0f) *
+            (leftD1[i].w - rightD1[q].w) * (leftD1[i].w - rightD1[q].w)),
         temporalGate(illuminationDifference, 20.0f, -1.25f),
-        waveletWeight(s, right[q], luminance(glm::vec3(value)),
-          luminance(glm::vec3(rightD1[q])), 2.0f, edges),
+        waveletWeight(
+          s, right[q], luminance(glm::vec3(value)), luminance(glm::vec3(rightD1[q])), 2.0f, edges),
         lambda);
     }
   }

@@ -255,13 +255,21 @@ HV_FUNCTION float stereoAgreement(
     (2.0f * agreementWidth * agreementWidth * glm::max(varianceSum, 0.0f) + 1e-20f));
 }
 
+// The variance of a pixel's coverage accumulated over `frames` raw frames, a (1 - a) / frames:
+// a frame's alpha is the fraction of the pixel's paths that scattered in the volume, Bernoulli
+// trials whose variance is at most a (1 - a), for one path (a clamped to [0, 1]).
+HV_FUNCTION float coverageVariance(float coverage, float frames)
+{
+  const float a = clampf(coverage, 0.0f, 1.0f);
+  return a * (1.0f - a) / glm::max(frames, 1.0f);
+}
+
 // The sharpness of the wavelet filter's coverage edge-stopping term, (a_i - a_j)^2 times
 // this, at a pixel whose colour averages `frames` raw frames: 1 / (2 k^2 v), k =
-// agreementWidth (0: no term), v = a (1 - a) / frames the variance of the pixel's accumulated
-// coverage. A frame's alpha (the radiance is premultiplied) is the fraction of the pixel's
-// paths that scattered in the volume, Bernoulli trials whose variance is at most a (1 - a),
-// for one path; a is the 3x3 mean coverage, so that a pixel that all of its few paths hit by
-// chance is not taken for an opaque one. Inside translucent material neighbours differ in
+// agreementWidth (0: no term), v the variance of the pixel's accumulated coverage
+// (coverageVariance; the radiance is premultiplied, its alpha is the coverage); a is the 3x3
+// mean coverage, so that a pixel that all of its few paths hit by chance is not taken for an
+// opaque one. Inside translucent material neighbours differ in
 // coverage by about sqrt(2 v), noise the filter should average; at the volume's silhouette
 // coverage steps from 1 to 0 within a pixel or two, many standard deviations, and averaging it
 // would give partly covered pixels their covered neighbours' light (a bright rim) and those
@@ -272,29 +280,30 @@ HV_FUNCTION float coverageSharpness(float coverage, float frames, float agreemen
   {
     return 0.0f;
   }
-  const float a = clampf(coverage, 0.0f, 1.0f);
-  const float variance = a * (1.0f - a) / glm::max(frames, 1.0f);
-  return 1.0f / (2.0f * agreementWidth * agreementWidth * variance + 1e-12f);
+  return 1.0f /
+    (2.0f * agreementWidth * agreementWidth * coverageVariance(coverage, frames) + 1e-12f);
 }
 
 // How far the other eye's samples may count in a pixel's cross-view filtering, given the two
 // eyes' accumulated coverages at the point (the alpha of their histories, which average
 // `samples` and `otherSamples` raw frames): e^(-d^2 / (2 k^2 v)), d the difference of the
-// coverages, v = a (1 - a) / n + b (1 - b) / m the sum of their variances (Bernoulli trials, one
-// path per frame counted), k = agreementWidth (0: always 1). The radiance is premultiplied, so a
-// sample brings its eye's coverage along. At the volume's silhouette the eyes see the edge from
-// two sides (parallax) and their coverages there differ systematically, which biased the edge
-// one-sidedly; inside translucent material they differ by noise only.
+// coverages, v the sum of their variances (coverageVariance), k = agreementWidth (0: always 1). The
+// radiance is premultiplied, so a sample brings its eye's coverage along. At the volume's
+// silhouette the eyes see the edge from two sides (parallax) and their coverages there differ
+// systematically, which biased the edge one-sidedly; inside translucent material they differ by
+// noise only.
 HV_FUNCTION float crossViewCoverage(
   float coverage, float samples, float otherCoverage, float otherSamples, float agreementWidth)
 {
-  const float a = clampf(coverage, 0.0f, 1.0f);
-  const float b = clampf(otherCoverage, 0.0f, 1.0f);
+  if (!(agreementWidth > 0.0f))
+  {
+    return 1.0f;
+  }
+  const float difference = clampf(coverage, 0.0f, 1.0f) - clampf(otherCoverage, 0.0f, 1.0f);
   const float variance =
-    a * (1.0f - a) / glm::max(samples, 1.0f) + b * (1.0f - b) / glm::max(otherSamples, 1.0f);
-  const float agreement = exponentialOfNegative(
-    (a - b) * (a - b) / (2.0f * agreementWidth * agreementWidth * variance + 1e-12f));
-  return agreementWidth > 0.0f ? agreement : 1.0f;
+    coverageVariance(coverage, samples) + coverageVariance(otherCoverage, otherSamples);
+  return exponentialOfNegative(
+    difference * difference / (2.0f * agreementWidth * agreementWidth * variance + 1e-12f));
 }
 
 // Albedo demodulation (Schied et al. 2017): filtering the incident-light factor keeps texture
