@@ -68,21 +68,19 @@ HV_FUNCTION float depthSlack(float spreadA, float gradientA, float spreadB, floa
 }
 
 // Continuous pixel position and view depth of a world point in an eye; false behind it or
-// off-screen. Pixel centres sit at i + 0.5 (hv::EyeView's convention).
+// off-screen. Pixel centres sit at i + 0.5 (hv::EyeView's convention). Free of branches, so
+// that a loop projecting a row of points vectorises: the position and depth are written
+// whatever the point (behind the eye they are meaningless, and the result is false).
 HV_FUNCTION bool projectToPixel(const glm::mat4& viewProjection, const glm::mat4& view, int width,
   int height, const glm::vec3& world, glm::vec2& pixel, float& viewDepth)
 {
   const glm::vec4 clip = viewProjection * glm::vec4(world, 1.0f);
-  if (!(clip.w > 0.0f))
-  {
-    return false;
-  }
   const float inverseW = 1.0f / clip.w;
   pixel.x = 0.5f * (clip.x * inverseW + 1.0f) * static_cast<float>(width);
   pixel.y = 0.5f * (clip.y * inverseW + 1.0f) * static_cast<float>(height);
   viewDepth = -(view[0][2] * world.x + view[1][2] * world.y + view[2][2] * world.z + view[3][2]);
-  return pixel.x >= 0.0f && pixel.y >= 0.0f && pixel.x < static_cast<float>(width) &&
-    pixel.y < static_cast<float>(height);
+  return (clip.w > 0.0f) & (pixel.x >= 0.0f) & (pixel.y >= 0.0f) &
+    (pixel.x < static_cast<float>(width)) & (pixel.y < static_cast<float>(height));
 }
 
 // The point at view depth `viewDepth` on the ray through the centre of pixel (x, y) (row 0 at
@@ -101,13 +99,14 @@ HV_FUNCTION bool pointOnPixelRay(const glm::mat4& inverseViewProjection, const g
   const glm::vec4 viewRow(view[0][2], view[1][2], view[2][2], view[3][2]);
   const float nearDepth = -glm::dot(viewRow, glm::vec4(nearPoint, 1.0f));
   const float farDepth = -glm::dot(viewRow, glm::vec4(farPoint, 1.0f));
-  if (!(glm::abs(farDepth - nearDepth) > 1e-12f))
-  {
-    return false;
-  }
+  // Selected rather than branched on, so that a loop over a row of pixels vectorises.
+  const bool valid = glm::abs(farDepth - nearDepth) > 1e-12f;
   const float t = (viewDepth - nearDepth) / (farDepth - nearDepth);
-  point = nearPoint + t * (farPoint - nearPoint);
-  return true;
+  const glm::vec3 onRay = nearPoint + t * (farPoint - nearPoint);
+  point.x = valid ? onRay.x : point.x;
+  point.y = valid ? onRay.y : point.y;
+  point.z = valid ? onRay.z : point.z;
+  return valid;
 }
 
 // e^-x for x >= 0 (negative x count as 0), to a relative error below 4e-6 on [0, 86] (the
