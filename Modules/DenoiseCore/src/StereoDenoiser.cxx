@@ -1145,6 +1145,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         eye.surface[i] = s;
         eye.raw[i] = (s.kind == SurfaceOwn && p.demodulateAlbedo) ? demodulate(radiance, s.albedo)
                                                                   : radiance;
+        eye.rawLuminance[i] = luminance(glm::vec3(eye.raw[i]));
       }
     });
   // Silhouette pixels where no sample scattered this frame borrow a neighbour's surface, so
@@ -1381,7 +1382,6 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         }
         eye.fused.set(i, sum / weightSum);
         eye.fusedWeight[i] = weightSum;
-        eye.rawLuminance[i] = luminance(glm::vec3(eye.raw[i]));
       }
     });
   this->Statistics.milliseconds[1] = millisecondsSince(stageStart);
