@@ -58,6 +58,28 @@ struct HistoryInfo
   float depthDifferenceSquareMean = 0.0f;
   float normalDifferenceSquareMean = 0.0f; // of 1 - cosine
   float depthMean = 0.0f;                  // of the first scatter depth, in the frame's view
+
+  // this += w h, field by field: a bilinear reprojection sums its taps' statistics so.
+  void addWeighted(float w, const HistoryInfo& h)
+  {
+    this->luminanceMean += w * h.luminanceMean;
+    this->luminanceSquareMean += w * h.luminanceSquareMean;
+    this->sampleCount += w * h.sampleCount;
+    this->frames += w * h.frames;
+    this->depthDifferenceSquareMean += w * h.depthDifferenceSquareMean;
+    this->normalDifferenceSquareMean += w * h.normalDifferenceSquareMean;
+    this->depthMean += w * h.depthMean;
+  }
+  void scale(float factor)
+  {
+    this->luminanceMean *= factor;
+    this->luminanceSquareMean *= factor;
+    this->sampleCount *= factor;
+    this->frames *= factor;
+    this->depthDifferenceSquareMean *= factor;
+    this->normalDifferenceSquareMean *= factor;
+    this->depthMean *= factor;
+  }
 };
 
 // What a row's pixels that see the volume contribute to DenoiserStatistics, summed where the
@@ -406,15 +428,8 @@ HV_WIDEST_VECTORS ReprojectedHistory reprojectHistory(const EyeState& eye, const
       continue;
     }
     const float w = taps.weight[t];
-    const HistoryInfo& h = eye.historyInfo[taps.index[t]];
     reprojected.value += w * eye.history[taps.index[t]];
-    previous.luminanceMean += w * h.luminanceMean;
-    previous.luminanceSquareMean += w * h.luminanceSquareMean;
-    previous.sampleCount += w * h.sampleCount;
-    previous.frames += w * h.frames;
-    previous.depthDifferenceSquareMean += w * h.depthDifferenceSquareMean;
-    previous.normalDifferenceSquareMean += w * h.normalDifferenceSquareMean;
-    previous.depthMean += w * h.depthMean;
+    previous.addWeighted(w, eye.historyInfo[taps.index[t]]);
     const float depthDifference = stored.depth - depth;
     reprojected.depthDifferenceSquare += w * depthDifference * depthDifference;
     const float normalDifference = 1.0f - glm::dot(stored.normal, s.normal);
@@ -432,13 +447,7 @@ HV_WIDEST_VECTORS ReprojectedHistory reprojectHistory(const EyeState& eye, const
       bilateralWeight(asSeenFrom(s, depth), eye.previousSurface[taps.index[bestTap]], p.temporal);
     const float inverse = 1.0f / weightSum;
     reprojected.value *= inverse;
-    previous.luminanceMean *= inverse;
-    previous.luminanceSquareMean *= inverse;
-    previous.sampleCount *= inverse;
-    previous.frames *= inverse;
-    previous.depthDifferenceSquareMean *= inverse;
-    previous.normalDifferenceSquareMean *= inverse;
-    previous.depthMean *= inverse;
+    previous.scale(inverse);
     reprojected.depth = depth;
     reprojected.depthDifferenceSquare *= inverse;
     reprojected.normalDifferenceSquare *= inverse;
