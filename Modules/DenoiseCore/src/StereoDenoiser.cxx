@@ -9,7 +9,9 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <sstream>
+#include <type_traits>
 #include <utility>
 #include <vector>
 #if defined(__SSE__)
@@ -43,6 +45,12 @@ double millisecondsSince(Clock::time_point start)
   __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
 #else
 #define HV_WIDEST_VECTORS
+#endif
+// For a lambda called inside one of those loops: inlined, it is compiled into each clone.
+#if defined(__GNUC__)
+#define HV_ALWAYS_INLINE __attribute__((always_inline))
+#else
+#define HV_ALWAYS_INLINE
 #endif
 
 // Per-pixel history: first and second moment of the luminance of one raw frame (for the
@@ -559,6 +567,76 @@ HV_WIDEST_VECTORS NeighbourhoodMoments neighbourhoodMomentsRow(const GuidePlanes
     }
   }
   return moments;
+}
+
+// The temporal blending's planes for a row (the temporal stage): each pixel's reprojected
+// history and its statistics, gathered pixel by pixel, and the blended statistics and learnt
+// jitters, written back into the per-pixel structs after the vector loop.
+namespace temporal
+{
+// HistoryInfo of each pixel of a row as one plane per field.
+struct HistoryInfoPlanes
+{
+  static constexpr int FieldCount = 7;
+  float* luminanceMean;
+  float* luminanceSquareMean;
+  float* sampleCount;
+  float* frames;
+  float* depthDifferenceSquareMean;
+  float* normalDifferenceSquareMean;
+  float* depthMean;
+
+  HistoryInfoPlanes(float* first, int count)
+    : luminanceMean(first)
+    , luminanceSquareMean(first + count)
+    , sampleCount(first + 2 * count)
+    , frames(first + 3 * count)
+    , depthDifferenceSquareMean(first + 4 * count)
+    , normalDifferenceSquareMean(first + 5 * count)
+    , depthMean(first + 6 * count)
+  {
+  }
+  void set(int k, const HistoryInfo& info) const
+  {
+    this->luminanceMean[k] = info.luminanceMean;
+    this->luminanceSquareMean[k] = info.luminanceSquareMean;
+    this->sampleCount[k] = info.sampleCount;
+    this->frames[k] = info.frames;
+    this->depthDifferenceSquareMean[k] = info.depthDifferenceSquareMean;
+    this->normalDifferenceSquareMean[k] = info.normalDifferenceSquareMean;
+    this->depthMean[k] = info.depthMean;
+  }
+  HistoryInfo at(int k) const
+  {
+    HistoryInfo info;
+    info.luminanceMean = this->luminanceMean[k];
+    info.luminanceSquareMean = this->luminanceSquareMean[k];
+    info.sampleCount = this->sampleCount[k];
+    info.frames = this->frames[k];
+    info.depthDifferenceSquareMean = this->depthDifferenceSquareMean[k];
+    info.normalDifferenceSquareMean = this->normalDifferenceSquareMean[k];
+    info.depthMean = this->depthMean[k];
+    return info;
+  }
+};
+
+enum Plane
+{
+  Seen, // 1 where the pixel sees a surface
+  HistoryValid,
+  HistoryValue,
+  PreviousInfo = HistoryValue + 4,
+  Zeta = PreviousInfo + HistoryInfoPlanes::FieldCount,
+  ReprojectedDepth,
+  DepthDifferenceSquare,
+  NormalDifferenceSquare,
+  RelightingRatio,
+  Point = RelightingRatio + 4,
+  BlendedInfo = Point + 3,
+  DepthJitter = BlendedInfo + HistoryInfoPlanes::FieldCount,
+  NormalJitter,
+  TemporalPlaneCount
+};
 }
 
 // One level of the edge-aware a-trous wavelet filter for the pixels [begin, end) of row y:
@@ -1458,143 +1536,299 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
     [&](int e, int y, int begin, int end) HV_WIDEST_VECTORS
     {
       EyeState& eye = impl.eyes[e];
-      ColourPlanes& accumulated = eye.filtered[0];
-      std::vector<float>& variance = eye.variance[0];
-      RowStatistics rowStatistics;
+      const bool relight = relightEye[e]; // a relit frame reprojected the history already
       const NeighbourhoodMoments moments = neighbourhoodMomentsRow(
         eye.guide, eye.fused, eye.rawLuminance, width, height, y, begin, end);
-      for (int x = begin; x < end; ++x)
+      // Three loops: the reprojected history gathered pixel by pixel (its bilinear taps and
+      // their disocclusion tests branch), into planes; the blending over those planes, which
+      // GCC vectorises; and its results written back into the per-pixel structs. The vector
+      // loop computes every value as a single per-pixel loop did, in the same order; where that
+      // loop skipped work (no surface, no history), it computes it anyway and selects what the
+      // skipping gave.
+      using namespace temporal;
+      const int count = end - begin;
+      const std::size_t row = static_cast<std::size_t>(y) * width + begin; // pixel of x = begin
+      thread_local std::vector<float> scratch;
+      scratch.assign(static_cast<std::size_t>(count) * TemporalPlaneCount, 0.0f);
+      const auto plane = [&](int index) { return scratch.data() + index * count; };
+      const HistoryInfoPlanes previousInfo(plane(PreviousInfo), count);
+      const HistoryInfoPlanes blendedInfo(plane(BlendedInfo), count);
+      for (int k = 0; k < count; ++k)
       {
-        const std::size_t i = static_cast<std::size_t>(y) * width + x;
+        const std::size_t i = row + k;
         const Surface& s = eye.surface[i];
-        const glm::vec4 current = eye.fused.at(i);
-        const float currentWeight = eye.fusedWeight[i];
         if (s.kind == SurfaceNone)
         {
-          accumulated.set(i, current);
-          variance[i] = 0.0f;
-          eye.nextHistory[i] = current;
-          eye.nextHistoryInfo[i] = HistoryInfo();
           continue;
         }
-        // 3x3 neighbourhood of the current frame: clamping box and spatial variance.
-        const int k = x - begin;
-        const float inverseNeighbours = 1.0f / moments.count[k];
-        glm::vec4 mean, squareMean;
-        for (int c = 0; c < 4; ++c)
-        {
-          mean[c] = moments.sum[c][k] * inverseNeighbours;
-          squareMean[c] = moments.squareSum[c][k] * inverseNeighbours;
-        }
-        const float luminanceMean = moments.luminanceSum[k] * inverseNeighbours;
-        const float luminanceSquareMean = moments.luminanceSquareSum[k] * inverseNeighbours;
-
-        HistoryInfo info;
-        glm::vec4 blended = current;
-        const float rawLuminance = luminance(glm::vec3(eye.raw[i]));
-        info.luminanceMean = rawLuminance;
-        info.luminanceSquareMean = rawLuminance * rawLuminance;
-        info.sampleCount = currentWeight;
-        info.frames = 1.0f;
-        info.depthMean = s.depth;
-        // A relit frame reprojected the history already, for the ratio.
-        const bool relight = relightEye[e];
+        plane(Seen)[k] = 1.0f;
         const ReprojectedHistory reprojected = !(useHistory && eye.hasPrevious)
           ? ReprojectedHistory()
           : relight ? eye.relitHistory[i]
                     : reprojectHistory(eye, s, i, width, height, p);
-        if (reprojected.valid)
+        if (!reprojected.valid)
         {
-          glm::vec4 history = reprojected.value;
-          HistoryInfo previous = reprojected.info;
-          const float zeta = reprojected.zeta;
+          continue;
+        }
+        plane(HistoryValid)[k] = 1.0f;
+        for (int c = 0; c < 4; ++c)
+        {
+          plane(HistoryValue + c)[k] = reprojected.value[c];
+        }
+        previousInfo.set(k, reprojected.info);
+        plane(Zeta)[k] = reprojected.zeta;
+        plane(ReprojectedDepth)[k] = reprojected.depth;
+        plane(DepthDifferenceSquare)[k] = reprojected.depthDifferenceSquare;
+        plane(NormalDifferenceSquare)[k] = reprojected.normalDifferenceSquare;
+        for (int c = 0; c < 3; ++c)
+        {
+          plane(Point + c)[k] = s.firstScatterPosition[c];
+        }
+        if (relight)
+        {
+          for (int c = 0; c < 4; ++c)
+          {
+            plane(RelightingRatio + c)[k] = eye.relightingRatio[i][c];
+          }
+        }
+      }
+
+      const float* __restrict seen = plane(Seen);
+      const float* __restrict historyValid = plane(HistoryValid);
+      // One pointer per plane: GCC does not vectorise loads through an array of pointers, and
+      // takes an index such as field * count + k for a gather.
+      const float* __restrict historyRed = plane(HistoryValue);
+      const float* __restrict historyGreen = plane(HistoryValue + 1);
+      const float* __restrict historyBlue = plane(HistoryValue + 2);
+      const float* __restrict historyCoverage = plane(HistoryValue + 3);
+      const float* __restrict zeta = plane(Zeta);
+      const float* __restrict reprojectedDepth = plane(ReprojectedDepth);
+      const float* __restrict depthDifferenceSquare = plane(DepthDifferenceSquare);
+      const float* __restrict normalDifferenceSquare = plane(NormalDifferenceSquare);
+      const float* __restrict ratioRed = plane(RelightingRatio);
+      const float* __restrict ratioGreen = plane(RelightingRatio + 1);
+      const float* __restrict ratioBlue = plane(RelightingRatio + 2);
+      const float* __restrict relitHistoryAgrees = plane(RelightingRatio + 3);
+      const float* __restrict pointX = plane(Point);
+      const float* __restrict pointY = plane(Point + 1);
+      const float* __restrict pointZ = plane(Point + 2);
+      float* __restrict depthJitter = plane(DepthJitter);
+      float* __restrict normalJitter = plane(NormalJitter);
+      const float* __restrict currentRed = eye.fused.channel[0].data() + row;
+      const float* __restrict currentGreen = eye.fused.channel[1].data() + row;
+      const float* __restrict currentBlue = eye.fused.channel[2].data() + row;
+      const float* __restrict currentCoverage = eye.fused.channel[3].data() + row;
+      const float* __restrict fusedWeight = eye.fusedWeight.data() + row;
+      const float* __restrict rawLuminanceOf = eye.rawLuminance.data() + row;
+      const float* __restrict depthOf = eye.guide.depth.data() + row;
+      float* __restrict accumulatedRed = eye.filtered[0].channel[0].data() + row;
+      float* __restrict accumulatedGreen = eye.filtered[0].channel[1].data() + row;
+      float* __restrict accumulatedBlue = eye.filtered[0].channel[2].data() + row;
+      float* __restrict accumulatedCoverage = eye.filtered[0].channel[3].data() + row;
+      float* __restrict variance = eye.variance[0].data() + row;
+      float* __restrict coverageSharpnessOf = eye.guide.coverageSharpness.data() + row;
+      // Loop invariants as locals: the stores through the planes could otherwise alias them.
+      const glm::mat4 toPreviousWorld = eye.toPreviousWorld;
+      const glm::vec3 centre = eyeCentre[e], previousCentre = previousEyeCentre[e];
+      const float gain = relightingGain[e];
+      const float relitHistoryReuse = p.relitHistoryReuse;
+      const float exponentialAverageAlpha = p.exponentialAverageAlpha;
+      const float maximumHistoryLength = static_cast<float>(glm::max(p.maximumHistoryLength, 1));
+      // GCC 12 does not vectorise a choice between two per-pixel values made on a flag that is
+      // the same for the whole loop. So the loop is instantiated for the two flags that change
+      // what is computed (relighting, the exponential average), and the other two become
+      // arithmetic that is exact when on and a no-op when off: no limit on the history's arc is
+      // an infinite angle, and no clamping a box widened by the largest float.
+      const float historyAngleLimit = p.maximumHistoryAngle > 0.0f
+        ? maximumHistoryRadians
+        : std::numeric_limits<float>::infinity();
+      const bool clamp = p.clampWidth > 0.0f;
+      const float clampWidth = clamp ? p.clampWidth : 0.0f;
+      // x - (+0) and x + (-0) are x exactly, -0 included (x + (+0) is not, for x = -0).
+      const float clampLowOffset = clamp ? 0.0f : std::numeric_limits<float>::max();
+      const float clampHighOffset = clamp ? -0.0f : std::numeric_limits<float>::max();
+      const float coverageAgreementWidth = p.coverageAgreementWidth;
+      const float surfaceJitterTolerance = p.surfaceJitterTolerance;
+      const auto blendRow = [&](auto relit, auto exponentialAverage) HV_ALWAYS_INLINE
+      {
+        constexpr bool Relit = decltype(relit)::value;
+        constexpr bool ExponentialAverage = decltype(exponentialAverage)::value;
+#pragma GCC ivdep
+        for (int k = 0; k < count; ++k)
+        {
+          const glm::vec4 current(
+            currentRed[k], currentGreen[k], currentBlue[k], currentCoverage[k]);
+          const float currentWeight = fusedWeight[k];
+          // 3x3 neighbourhood of the current frame: clamping box and spatial variance.
+          const float inverseNeighbours = 1.0f / moments.count[k];
+          glm::vec4 mean, squareMean;
+          for (int c = 0; c < 4; ++c)
+          {
+            mean[c] = moments.sum[c][k] * inverseNeighbours;
+            squareMean[c] = moments.squareSum[c][k] * inverseNeighbours;
+          }
+          const float luminanceMean = moments.luminanceSum[k] * inverseNeighbours;
+          const float luminanceSquareMean = moments.luminanceSquareSum[k] * inverseNeighbours;
+
+          const float rawLuminance = rawLuminanceOf[k];
+          const float depth = depthOf[k];
+          // Without a history the frame starts one.
+          float infoLuminanceMean = rawLuminance;
+          float infoLuminanceSquareMean = rawLuminance * rawLuminance;
+          float infoSampleCount = currentWeight;
+          float infoFrames = 1.0f;
+          float infoDepthDifferenceSquareMean = 0.0f;
+          float infoNormalDifferenceSquareMean = 0.0f;
+          float infoDepthMean = depth;
+          glm::vec4 blended = current;
+
+          glm::vec4 history(historyRed[k], historyGreen[k], historyBlue[k], historyCoverage[k]);
+          float previousLuminanceMean = previousInfo.luminanceMean[k];
+          float previousLuminanceSquareMean = previousInfo.luminanceSquareMean[k];
+          const float previousSampleCount = previousInfo.sampleCount[k];
+          const float previousFrames = previousInfo.frames[k];
+          const float previousDepthDifferenceSquareMean = previousInfo.depthDifferenceSquareMean[k];
+          const float previousNormalDifferenceSquareMean =
+            previousInfo.normalDifferenceSquareMean[k];
+          const float previousDepthMean = previousInfo.depthMean[k];
+          const float historyDepthDifferenceSquare = depthDifferenceSquare[k];
+          const float historyNormalDifferenceSquare = normalDifferenceSquare[k];
+          const float historyDepth = reprojectedDepth[k];
           float reuse = gate;
-          if (relight)
+          if constexpr (Relit)
           {
             // With probability delta the light is the same and the history stays; otherwise
             // it is relit, its colour scaled by the ratio of the current to the old light
             // (computeRelightingRatio; the gain is 1 - delta on the frame of the change and
             // 1/(k+1) on the k-th refinement), and then trusted as a shorter history, since
             // only its brightness was corrected.
-            const glm::vec4 relighting = eye.relightingRatio[i];
-            const glm::vec3 ratio = 1.0f + relightingGain[e] * (glm::vec3(relighting) - 1.0f);
+            const glm::vec3 ratio =
+              1.0f + gain * (glm::vec3(ratioRed[k], ratioGreen[k], ratioBlue[k]) - 1.0f);
             const float oldLuminance = luminance(glm::vec3(history));
             history = glm::vec4(glm::vec3(history) * ratio, history.w);
             const float luminanceRatio =
               oldLuminance > 1e-12f ? luminance(glm::vec3(history)) / oldLuminance : 1.0f;
-            previous.luminanceMean *= luminanceRatio;
-            previous.luminanceSquareMean *= luminanceRatio * luminanceRatio;
-            reuse = gate + (1.0f - gate) * p.relitHistoryReuse * relighting.w;
+            previousLuminanceMean *= luminanceRatio;
+            previousLuminanceSquareMean *= luminanceRatio * luminanceRatio;
+            reuse = gate + (1.0f - gate) * relitHistoryReuse * relitHistoryAgrees[k];
           }
-          if (p.clampWidth > 0.0f)
           {
+            // Neighbourhood clamping, as clampToNeighbourhood.
             const glm::vec4 deviation = glm::sqrt(glm::max(squareMean - mean * mean, 0.0f));
-            history = clampToNeighbourhood(history, mean, deviation, p.clampWidth);
+            history = glm::clamp(history, mean - clampWidth * deviation - clampLowOffset,
+              mean + clampWidth * deviation + clampHighOffset);
           }
-          float alpha;
-          if (p.exponentialAverageAlpha > 0.0f)
+          float alpha, sampleCount, frames;
+          if constexpr (ExponentialAverage)
           {
-            alpha = glm::min(p.exponentialAverageAlpha, 1.0f);
-            info.sampleCount = currentWeight + previous.sampleCount * (1.0f - alpha);
-            info.frames = previous.frames + 1.0f;
+            alpha = glm::min(exponentialAverageAlpha, 1.0f);
+            sampleCount = currentWeight + previousSampleCount * (1.0f - alpha);
+            frames = previousFrames + 1.0f;
           }
           else
           {
             // (v + w_v N h) / (1 + w_v N) with the current frame's weight 1 per raw frame.
-            const float historyWeight = reuse * zeta * previous.sampleCount;
+            const float historyWeight = reuse * zeta[k] * previousSampleCount;
             alpha = currentWeight / (currentWeight + historyWeight);
             // A moving view sees the point from a new direction every frame, and view-
             // dependent light (the phase function, the specular lobe) changes with it: the
             // history spans at most maximumHistoryAngle of viewing directions.
-            float longest = static_cast<float>(glm::max(p.maximumHistoryLength, 1));
-            if (p.maximumHistoryAngle > 0.0f)
+            float longest = maximumHistoryLength;
             {
+              const glm::vec3 pointNow(pointX[k], pointY[k], pointZ[k]);
               const glm::vec3 previousPoint =
-                glm::vec3(eye.toPreviousWorld * glm::vec4(s.firstScatterPosition, 1.0f));
+                glm::vec3(toPreviousWorld * glm::vec4(pointNow, 1.0f));
               // The chord between unit directions is the angle within 1 % below 14 degrees.
-              const float turned =
-                glm::length(glm::normalize(eyeCentre[e] - s.firstScatterPosition) -
-                  glm::normalize(previousEyeCentre[e] - previousPoint));
-              if (turned * longest > maximumHistoryRadians)
-              {
-                longest = glm::max(maximumHistoryRadians / turned, 1.0f);
-              }
+              const float turned = glm::length(
+                glm::normalize(centre - pointNow) - glm::normalize(previousCentre - previousPoint));
+              longest = turned * longest > historyAngleLimit
+                ? glm::max(historyAngleLimit / turned, 1.0f)
+                : longest;
             }
             alpha = glm::max(alpha, 1.0f / longest);
-            info.sampleCount = currentWeight / alpha;
-            info.frames = glm::min(1.0f + reuse * zeta * previous.frames, longest);
+            sampleCount = currentWeight / alpha;
+            frames = glm::min(1.0f + reuse * zeta[k] * previousFrames, longest);
           }
-          blended = glm::mix(history, current, alpha);
-          info.luminanceMean = glm::mix(previous.luminanceMean, rawLuminance, alpha);
-          info.luminanceSquareMean =
-            glm::mix(previous.luminanceSquareMean, rawLuminance * rawLuminance, alpha);
-          info.depthDifferenceSquareMean =
-            glm::mix(previous.depthDifferenceSquareMean, reprojected.depthDifferenceSquare, alpha);
-          info.normalDifferenceSquareMean = glm::mix(
-            previous.normalDifferenceSquareMean, reprojected.normalDifferenceSquare, alpha);
-          // The mean depth moves with the view as the current point does between the views.
-          info.depthMean =
-            glm::mix(previous.depthMean + (s.depth - reprojected.depth), s.depth, alpha);
+          if (historyValid[k] > 0.0f)
+          {
+            blended = glm::mix(history, current, alpha);
+            infoSampleCount = sampleCount;
+            infoFrames = frames;
+            infoLuminanceMean = glm::mix(previousLuminanceMean, rawLuminance, alpha);
+            infoLuminanceSquareMean =
+              glm::mix(previousLuminanceSquareMean, rawLuminance * rawLuminance, alpha);
+            infoDepthDifferenceSquareMean =
+              glm::mix(previousDepthDifferenceSquareMean, historyDepthDifferenceSquare, alpha);
+            infoNormalDifferenceSquareMean =
+              glm::mix(previousNormalDifferenceSquareMean, historyNormalDifferenceSquare, alpha);
+            // The mean depth moves with the view as the current point does between the views.
+            infoDepthMean = glm::mix(previousDepthMean + (depth - historyDepth), depth, alpha);
+          }
+          // Variance of one raw frame's luminance: temporal once four frames exist (SVGF), the
+          // neighbourhood's before; the filtered value averages sampleCount such frames.
+          const float frameVariance = infoFrames >= 4.0f
+            ? infoLuminanceSquareMean - infoLuminanceMean * infoLuminanceMean
+            : luminanceSquareMean - luminanceMean * luminanceMean;
+          const bool surface = seen[k] > 0.0f;
+          accumulatedRed[k] = blended.x;
+          accumulatedGreen[k] = blended.y;
+          accumulatedBlue[k] = blended.z;
+          accumulatedCoverage[k] = blended.w;
+          variance[k] =
+            surface ? glm::max(frameVariance, 0.0f) / glm::max(infoSampleCount, 1.0f) : 0.0f;
+          // The wavelet filter's coverage edge-stopping at this pixel, from the 3x3 mean
+          // coverage of the frame (the alpha of `mean`) and the frames its value averages.
+          coverageSharpnessOf[k] = surface
+            ? coverageSharpness(mean.w, infoSampleCount, coverageAgreementWidth)
+            : coverageSharpnessOf[k];
+          blendedInfo.luminanceMean[k] = infoLuminanceMean;
+          blendedInfo.luminanceSquareMean[k] = infoLuminanceSquareMean;
+          blendedInfo.sampleCount[k] = infoSampleCount;
+          blendedInfo.frames[k] = infoFrames;
+          blendedInfo.depthDifferenceSquareMean[k] = infoDepthDifferenceSquareMean;
+          blendedInfo.normalDifferenceSquareMean[k] = infoNormalDifferenceSquareMean;
+          blendedInfo.depthMean[k] = infoDepthMean;
+          // The jitter learnt so far travels with the surface: next frame this surface is the
+          // stored one that the disocclusion tests read (and D2 reads it this frame).
+          depthJitter[k] = surfaceJitterTolerance * std::sqrt(infoDepthDifferenceSquareMean);
+          normalJitter[k] = surfaceJitterTolerance * std::sqrt(infoNormalDifferenceSquareMean);
         }
-        // Variance of one raw frame's luminance: temporal once four frames exist (SVGF), the
-        // neighbourhood's before; the filtered value averages sampleCount such frames.
-        const float frameVariance = info.frames >= 4.0f
-          ? info.luminanceSquareMean - info.luminanceMean * info.luminanceMean
-          : luminanceSquareMean - luminanceMean * luminanceMean;
-        accumulated.set(i, blended);
-        // The jitter learnt so far travels with the surface: next frame this surface is the
-        // stored one that the disocclusion tests read (and D2 reads it this frame).
-        eye.surface[i].depthJitter =
-          p.surfaceJitterTolerance * std::sqrt(info.depthDifferenceSquareMean);
-        eye.surface[i].normalJitter =
-          p.surfaceJitterTolerance * std::sqrt(info.normalDifferenceSquareMean);
-        variance[i] = glm::max(frameVariance, 0.0f) / glm::max(info.sampleCount, 1.0f);
-        // The wavelet filter's coverage edge-stopping at this pixel, from the 3x3 mean
-        // coverage of the frame (the alpha of `mean`) and the frames its value averages.
-        eye.guide.coverageSharpness[i] =
-          coverageSharpness(mean.w, info.sampleCount, p.coverageAgreementWidth);
-        eye.nextHistory[i] = blended;
+      };
+      using Yes = std::true_type;
+      using No = std::false_type;
+      const bool exponential = exponentialAverageAlpha > 0.0f;
+      if (relight && exponential)
+      {
+        blendRow(Yes(), Yes());
+      }
+      else if (relight)
+      {
+        blendRow(Yes(), No());
+      }
+      else if (exponential)
+      {
+        blendRow(No(), Yes());
+      }
+      else
+      {
+        blendRow(No(), No());
+      }
+
+      RowStatistics rowStatistics;
+      for (int k = 0; k < count; ++k)
+      {
+        const std::size_t i = row + k;
+        eye.nextHistory[i] = glm::vec4(
+          accumulatedRed[k], accumulatedGreen[k], accumulatedBlue[k], accumulatedCoverage[k]);
+        if (!(seen[k] > 0.0f))
+        {
+          eye.nextHistoryInfo[i] = HistoryInfo();
+          continue;
+        }
+        const HistoryInfo info = blendedInfo.at(k);
         eye.nextHistoryInfo[i] = info;
+        eye.surface[i].depthJitter = depthJitter[k];
+        eye.surface[i].normalJitter = normalJitter[k];
         ++rowStatistics.surfaces;
         rowStatistics.fresh += info.frames <= 1.0f ? 1 : 0;
         rowStatistics.historyLengthSum += info.frames;
