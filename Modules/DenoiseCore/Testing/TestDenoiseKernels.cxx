@@ -297,6 +297,10 @@ TEST(DenoiseKernels, DemodulationRoundTripAndClamp)
   const glm::vec4 clamped =
     clampToNeighbourhood(glm::vec4(5.0f, 0.0f, 1.0f, 1.0f), glm::vec4(1.0f), glm::vec4(0.5f), 2.0f);
   EXPECT_EQ(clamped, glm::vec4(2.0f, 0.0f, 1.0f, 1.0f));
+  // Width 0: no clamping.
+  EXPECT_EQ(clampToNeighbourhood(
+              glm::vec4(5.0f, 0.0f, -0.0f, 1.0f), glm::vec4(1.0f), glm::vec4(0.5f), 0.0f),
+    glm::vec4(5.0f, 0.0f, -0.0f, 1.0f));
 }
 
 // Catmull-Rom weights: a partition of unity that interpolates the taps and reproduces a ramp,

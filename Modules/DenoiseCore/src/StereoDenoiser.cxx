@@ -1638,15 +1638,12 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       // the same for the whole loop. So the loop is instantiated for the two flags that change
       // what is computed (relighting, the exponential average), and the other two become
       // arithmetic that is exact when on and a no-op when off: no limit on the history's arc is
-      // an infinite angle, and no clamping a box widened by the largest float.
+      // an infinite angle, and no clamping a box widened by the largest float
+      // (clampToNeighbourhood).
       const float historyAngleLimit = p.maximumHistoryAngle > 0.0f
         ? maximumHistoryRadians
         : std::numeric_limits<float>::infinity();
-      const bool clamp = p.clampWidth > 0.0f;
-      const float clampWidth = clamp ? p.clampWidth : 0.0f;
-      // x - (+0) and x + (-0) are x exactly, -0 included (x + (+0) is not, for x = -0).
-      const float clampLowOffset = clamp ? 0.0f : std::numeric_limits<float>::max();
-      const float clampHighOffset = clamp ? -0.0f : std::numeric_limits<float>::max();
+      const float clampWidth = p.clampWidth;
       const float coverageAgreementWidth = p.coverageAgreementWidth;
       const float surfaceJitterTolerance = p.surfaceJitterTolerance;
       const auto blendRow = [&](auto relit, auto exponentialAverage) HV_ALWAYS_INLINE
@@ -1713,10 +1710,8 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
             reuse = gate + (1.0f - gate) * relitHistoryReuse * relitHistoryAgrees[k];
           }
           {
-            // Neighbourhood clamping, as clampToNeighbourhood.
             const glm::vec4 deviation = glm::sqrt(glm::max(squareMean - mean * mean, 0.0f));
-            history = glm::clamp(history, mean - clampWidth * deviation - clampLowOffset,
-              mean + clampWidth * deviation + clampHighOffset);
+            history = clampToNeighbourhood(history, mean, deviation, clampWidth);
           }
           float alpha, sampleCount, frames;
           if constexpr (ExponentialAverage)

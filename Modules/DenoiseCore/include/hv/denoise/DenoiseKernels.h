@@ -9,6 +9,7 @@
 
 #include "hv/Platform.h"
 
+#include <cfloat>
 #include <cstdint>
 #include <cstring>
 
@@ -374,11 +375,20 @@ HV_FUNCTION float waveletWeight(const Surface& centre, const Surface& tap, float
 
 // Neighbourhood clamping of the reprojected history (Karis 2014; Salvi's variance box): the
 // history is limited to mean +- width * standard deviation of the current neighbourhood,
-// which removes ghosts that reprojection and T do not catch.
+// which removes ghosts that reprojection and T do not catch. A width <= 0 leaves the history
+// as it is. That case widens the box by FLT_MAX instead of branching, so that a loop over a
+// row of pixels with one width for all vectorises (GCC 12 does not vectorise a choice between
+// two per-pixel values on a flag that holds for the whole loop). When clamping, the offsets
+// change nothing: x - (+0) and x + (-0) are x exactly, -0 included (x + (+0) is not).
 HV_FUNCTION glm::vec4 clampToNeighbourhood(
   const glm::vec4& history, const glm::vec4& mean, const glm::vec4& standardDeviation, float width)
 {
-  return glm::clamp(history, mean - width * standardDeviation, mean + width * standardDeviation);
+  const bool clamp = width > 0.0f;
+  const float boxWidth = clamp ? width : 0.0f;
+  const float lowOffset = clamp ? 0.0f : FLT_MAX;
+  const float highOffset = clamp ? -0.0f : FLT_MAX;
+  return glm::clamp(history, mean - boxWidth * standardDeviation - lowOffset,
+    mean + boxWidth * standardDeviation + highOffset);
 }
 }
 }
