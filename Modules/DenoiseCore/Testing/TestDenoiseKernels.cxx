@@ -178,6 +178,7 @@ TEST(DenoiseKernels, StereoBlendWeight)
 TEST(DenoiseKernels, StereoAgreement)
 {
   EXPECT_EQ(stereoAgreement(5.0f, 1.0f, 0.0f), 1.0f); // off: the paper's lambda alone
+  EXPECT_EQ(stereoAgreementTerm(0.2f, 0.04f, 3.0f), stereoAgreement(0.2f, 0.04f, 3.0f));
   EXPECT_NEAR(stereoAgreement(0.0f, 0.04f, 3.0f), 1.0f, 1e-6f);
   const float sigma = 0.2f; // of the difference, sqrt(v)
   EXPECT_NEAR(stereoAgreement(3.0f * sigma, sigma * sigma, 3.0f), std::exp(-0.5f), 1e-5f);
@@ -394,4 +395,11 @@ TEST(DenoiseKernels, CrossViewCoverage)
   // Symmetric in the eyes.
   EXPECT_FLOAT_EQ(crossViewCoverage(0.9f, 8.0f, 0.5f, 4.0f, 1.0f),
     crossViewCoverage(0.5f, 4.0f, 0.9f, 8.0f, 1.0f));
+  // The term alone, as the vectorised cross-view loop evaluates it everywhere: equal coverages
+  // give exactly 1, with or without a width, which is what that loop puts where the coverages
+  // are not compared.
+  EXPECT_EQ(crossViewCoverageTerm(0.0f, 1.0f, 0.0f, 1.0f, 1.0f), 1.0f);
+  EXPECT_EQ(crossViewCoverageTerm(0.0f, 1.0f, 0.0f, 1.0f, 0.0f), 1.0f);
+  EXPECT_EQ(crossViewCoverageTerm(0.7f, 32.0f, 0.6f, 16.0f, 2.0f),
+    crossViewCoverage(0.7f, 32.0f, 0.6f, 16.0f, 2.0f));
 }

@@ -639,6 +639,81 @@ enum Plane
 };
 }
 
+namespace crossview
+{
+// For a row of pixels, the surface stored at each one's corresponding pixel in another view or
+// frame (the fields zeta reads), one plane per field, and the depth the pixel's own point has
+// in that view.
+struct StoredSurfacePlanes
+{
+  static constexpr int FieldCount = 10;
+  float* albedoRed;
+  float* albedoGreen;
+  float* albedoBlue;
+  float* normalX;
+  float* normalY;
+  float* normalZ;
+  float* gradientMagnitude;
+  float* depth;
+  float* depthSpread;
+  float* seenDepth;
+
+  StoredSurfacePlanes(float* first, int count)
+    : albedoRed(first)
+    , albedoGreen(first + count)
+    , albedoBlue(first + 2 * count)
+    , normalX(first + 3 * count)
+    , normalY(first + 4 * count)
+    , normalZ(first + 5 * count)
+    , gradientMagnitude(first + 6 * count)
+    , depth(first + 7 * count)
+    , depthSpread(first + 8 * count)
+    , seenDepth(first + 9 * count)
+  {
+  }
+  void set(int k, const Surface& stored, float seenFromDepth) const
+  {
+    this->albedoRed[k] = stored.albedo.x;
+    this->albedoGreen[k] = stored.albedo.y;
+    this->albedoBlue[k] = stored.albedo.z;
+    this->normalX[k] = stored.normal.x;
+    this->normalY[k] = stored.normal.y;
+    this->normalZ[k] = stored.normal.z;
+    this->gradientMagnitude[k] = stored.gradientMagnitude;
+    this->depth[k] = stored.depth;
+    this->depthSpread[k] = stored.depthSpread;
+    this->seenDepth[k] = seenFromDepth;
+  }
+  Surface at(int k) const
+  {
+    Surface stored;
+    stored.albedo = glm::vec3(this->albedoRed[k], this->albedoGreen[k], this->albedoBlue[k]);
+    stored.normal = glm::vec3(this->normalX[k], this->normalY[k], this->normalZ[k]);
+    stored.gradientMagnitude = this->gradientMagnitude[k];
+    stored.depth = this->depth[k];
+    stored.depthSpread = this->depthSpread[k];
+    return stored;
+  }
+};
+
+enum Plane
+{
+  OtherNow,                                                      // k_R^t
+  PreviousOwn = OtherNow + StoredSurfacePlanes::FieldCount,      // k_L^{t-1}
+  PreviousOther = PreviousOwn + StoredSurfacePlanes::FieldCount, // k_R^{t-1}
+  // The eyes' accumulated coverages at k_L^{t-1} and k_R^{t-1} and their sample counts
+  // (crossViewCoverage); equal coverages where they are not compared, which give exactly 1.
+  OwnCoverage = PreviousOther + StoredSurfacePlanes::FieldCount,
+  OwnSamples,
+  OtherCoverage,
+  OtherSamples,
+  WeightOtherNow,
+  WeightPreviousOwn,
+  WeightPreviousOther,
+  CrossViewPlaneCount
+};
+}
+
 // One level of the edge-aware a-trous wavelet filter for the pixels [begin, end) of row y:
 // 3x3 B-spline taps at distance `step`, each weighted by the edge-stopping functions and by
 // the variance-guided luminance term (SVGF Eq. 5), whose scale comes from the 3x3-blurred
@@ -1387,84 +1462,158 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         otherPixelY[x] = pixel.y;
         otherDepth[x] = depth;
       }
-      for (int x = begin; x < end; ++x)
+      // Then three loops, as in the temporal blending: the corresponding pixels looked up and
+      // tested pixel by pixel (disocclusion tests branch), their surfaces gathered into
+      // planes; the weights over those planes, in a loop GCC vectorises (three zetas and the
+      // coverages' agreement, each with an e^-x, were most of the stage's arithmetic); and the
+      // weighted sum, pixel by pixel again. Every value is computed with the operations of a
+      // single per-pixel loop in their order; the vector loop computes the weights of samples
+      // that do not exist too, and the sum leaves them out.
+      using namespace crossview;
+      thread_local std::vector<float> planes;
+      thread_local std::vector<int> indices;
+      planes.resize(static_cast<std::size_t>(count) * CrossViewPlaneCount);
+      indices.resize(static_cast<std::size_t>(count) * 3);
+      const auto plane = [&](int index) { return planes.data() + index * count; };
+      const StoredSurfacePlanes otherNow(plane(OtherNow), count);
+      const StoredSurfacePlanes previousOwn(plane(PreviousOwn), count);
+      const StoredSurfacePlanes previousOther(plane(PreviousOther), count);
+      int* __restrict otherNowIndex = indices.data();
+      int* __restrict previousOwnIndex = indices.data() + count;
+      int* __restrict previousOtherIndex = indices.data() + 2 * count;
+      float* __restrict ownCoverage = plane(OwnCoverage);
+      float* __restrict ownSamples = plane(OwnSamples);
+      float* __restrict otherCoverage = plane(OtherCoverage);
+      float* __restrict otherSamples = plane(OtherSamples);
+      const bool compareCoverage = p.crossViewCoverageWidth > 0.0f;
+      for (int k = 0; k < count; ++k)
       {
-        const std::size_t i = static_cast<std::size_t>(y) * width + x;
-        const int k = x - begin;
-        const Surface& s = eye.surface[i];
-        glm::vec4 sum = eye.raw[i];
-        float weightSum = 1.0f;
-        if (s.kind != SurfaceNone && p.crossViewSamples)
+        const Surface& s = eye.surface[row + k];
+        otherNowIndex[k] = -1;
+        previousOwnIndex[k] = -1;
+        previousOtherIndex[k] = -1;
+        ownCoverage[k] = 0.0f;
+        ownSamples[k] = 1.0f;
+        otherCoverage[k] = 0.0f;
+        otherSamples[k] = 1.0f;
+        if (s.kind == SurfaceNone || !p.crossViewSamples)
         {
-          // The previous frame's corresponding pixels first: k_L^{t-1}, and k_R^{t-1} through
-          // the point stored there.
-          int previousOwn = -1, previousOther = -1;
-          float previousOwnDepth = 0.0f, previousOtherDepth = 0.0f;
-          if (usePreviousFrame && eye.hasPrevious && previousOnScreen[k] > 0.0f)
+          continue;
+        }
+        // The previous frame's corresponding pixels first: k_L^{t-1}, and k_R^{t-1} through
+        // the point stored there.
+        if (usePreviousFrame && eye.hasPrevious && previousOnScreen[k] > 0.0f)
+        {
+          const float depth = previousDepth[k];
+          const int q = nearestPixel(glm::vec2(previousPixelX[k], previousPixelY[k]), width);
+          const Surface& stored = eye.previousSurface[q];
+          if (consistentSurface(stored, depth, s.normal, s.gradientMagnitude, s.depthSpread,
+                p.depthTolerance, p.normalCosine, p.normalTestGradient))
           {
-            const float depth = previousDepth[k];
-            const int q = nearestPixel(glm::vec2(previousPixelX[k], previousPixelY[k]), width);
-            const Surface& stored = eye.previousSurface[q];
-            if (consistentSurface(stored, depth, s.normal, s.gradientMagnitude, s.depthSpread,
-                  p.depthTolerance, p.normalCosine, p.normalTestGradient))
+            previousOwnIndex[k] = q;
+            previousOwn.set(k, stored, depth);
+            glm::vec2 otherPreviousPixel;
+            float otherPreviousDepth;
+            if (stereo && other.hasPrevious &&
+              projectToPixel(other.previousViewProjection, other.previousView, width, height,
+                stored.firstScatterPosition, otherPreviousPixel, otherPreviousDepth))
             {
-              previousOwn = q;
-              previousOwnDepth = depth;
-              glm::vec2 otherPreviousPixel;
-              float otherPreviousDepth;
-              if (stereo && other.hasPrevious &&
-                projectToPixel(other.previousViewProjection, other.previousView, width, height,
-                  stored.firstScatterPosition, otherPreviousPixel, otherPreviousDepth))
+              const int r = nearestPixel(otherPreviousPixel, width);
+              const Surface& otherStored = other.previousSurface[r];
+              if (consistentSurface(otherStored, otherPreviousDepth, stored.normal,
+                    stored.gradientMagnitude, stored.depthSpread, p.depthTolerance, p.normalCosine,
+                    p.normalTestGradient))
               {
-                const int r = nearestPixel(otherPreviousPixel, width);
-                if (consistentSurface(other.previousSurface[r], otherPreviousDepth, stored.normal,
-                      stored.gradientMagnitude, stored.depthSpread, p.depthTolerance,
-                      p.normalCosine, p.normalTestGradient))
+                previousOtherIndex[k] = r;
+                previousOther.set(k, otherStored, otherPreviousDepth);
+                if (compareCoverage)
                 {
-                  previousOther = r;
-                  previousOtherDepth = otherPreviousDepth;
+                  ownCoverage[k] = eye.history[q].w;
+                  ownSamples[k] = eye.historyInfo[q].sampleCount;
+                  otherCoverage[k] = other.history[r].w;
+                  otherSamples[k] = other.historyInfo[r].sampleCount;
                 }
               }
             }
           }
-          // The other eye's samples carry its coverage. At the silhouette the eyes' parallax
-          // makes that coverage differ from this pixel's by more than noise (the right eye sees
-          // further round the right side), and they would bias the edge: they count only as far
-          // as the two eyes' accumulated coverages at the point agree (crossViewCoverage).
-          const float otherEyeWeight = previousOther < 0
-            ? 1.0f
-            : crossViewCoverage(eye.history[previousOwn].w,
-                eye.historyInfo[previousOwn].sampleCount, other.history[previousOther].w,
-                other.historyInfo[previousOther].sampleCount, p.crossViewCoverageWidth);
-          if (stereo && otherOnScreen[k] > 0.0f)
+        }
+        if (stereo && otherOnScreen[k] > 0.0f)
+        {
+          const float depth = otherDepth[k];
+          const int q = nearestPixel(glm::vec2(otherPixelX[k], otherPixelY[k]), width);
+          const Surface& stored = other.surface[q];
+          if (consistentSurface(stored, depth, s.normal, s.gradientMagnitude, s.depthSpread,
+                p.depthTolerance, p.normalCosine, p.normalTestGradient))
           {
-            const float depth = otherDepth[k];
-            const int q = nearestPixel(glm::vec2(otherPixelX[k], otherPixelY[k]), width);
-            const Surface& stored = other.surface[q];
-            if (consistentSurface(stored, depth, s.normal, s.gradientMagnitude, s.depthSpread,
-                  p.depthTolerance, p.normalCosine, p.normalTestGradient))
-            {
-              const float w =
-                otherEyeWeight * bilateralWeight(asSeenFrom(s, depth), stored, p.crossView);
-              sum += w * other.raw[q];
-              weightSum += w;
-            }
+            otherNowIndex[k] = q;
+            otherNow.set(k, stored, depth);
           }
-          if (gate > 0.0f && previousOwn >= 0)
+        }
+      }
+
+      // The pixel's own surface from the guide planes, which hold it for every pixel that
+      // sees one.
+      const float* __restrict albedoRed = eye.guide.albedo[0].data() + row;
+      const float* __restrict albedoGreen = eye.guide.albedo[1].data() + row;
+      const float* __restrict albedoBlue = eye.guide.albedo[2].data() + row;
+      const float* __restrict normalX = eye.guide.normal[0].data() + row;
+      const float* __restrict normalY = eye.guide.normal[1].data() + row;
+      const float* __restrict normalZ = eye.guide.normal[2].data() + row;
+      const float* __restrict gradientMagnitude = eye.guide.gradientMagnitude.data() + row;
+      const float* __restrict depthSpread = eye.guide.depthSpread.data() + row;
+      float* __restrict weightOtherNow = plane(WeightOtherNow);
+      float* __restrict weightPreviousOwn = plane(WeightPreviousOwn);
+      float* __restrict weightPreviousOther = plane(WeightPreviousOther);
+      const EdgeStopping crossView = p.crossView;
+      const float coverageWidth = p.crossViewCoverageWidth;
+      const float previousFrameGate = gate;
+#pragma GCC ivdep
+      for (int k = 0; k < count; ++k)
+      {
+        Surface s;
+        s.albedo = glm::vec3(albedoRed[k], albedoGreen[k], albedoBlue[k]);
+        s.normal = glm::vec3(normalX[k], normalY[k], normalZ[k]);
+        s.gradientMagnitude = gradientMagnitude[k];
+        s.depthSpread = depthSpread[k];
+        // The other eye's samples carry its coverage. At the silhouette the eyes' parallax
+        // makes that coverage differ from this pixel's by more than noise (the right eye sees
+        // further round the right side), and they would bias the edge: they count only as far
+        // as the two eyes' accumulated coverages at the point agree (crossViewCoverage).
+        // Where they are not compared the planes hold equal coverages, whose term is e^-0,
+        // exactly 1: a choice between the term and 1 would keep GCC from vectorising the loop
+        // (it moves the term's arithmetic into the branch).
+        const float otherEyeWeight = crossViewCoverageTerm(
+          ownCoverage[k], ownSamples[k], otherCoverage[k], otherSamples[k], coverageWidth);
+        weightOtherNow[k] = otherEyeWeight *
+          bilateralWeight(asSeenFrom(s, otherNow.seenDepth[k]), otherNow.at(k), crossView);
+        weightPreviousOwn[k] = previousFrameGate *
+          bilateralWeight(asSeenFrom(s, previousOwn.seenDepth[k]), previousOwn.at(k), crossView);
+        weightPreviousOther[k] = previousFrameGate * otherEyeWeight *
+          bilateralWeight(
+            asSeenFrom(s, previousOther.seenDepth[k]), previousOther.at(k), crossView);
+      }
+
+      for (int k = 0; k < count; ++k)
+      {
+        const std::size_t i = row + k;
+        glm::vec4 sum = eye.raw[i];
+        float weightSum = 1.0f;
+        if (otherNowIndex[k] >= 0)
+        {
+          const float w = weightOtherNow[k];
+          sum += w * other.raw[otherNowIndex[k]];
+          weightSum += w;
+        }
+        if (gate > 0.0f && previousOwnIndex[k] >= 0)
+        {
+          const float w = weightPreviousOwn[k];
+          sum += w * eye.previousRaw[previousOwnIndex[k]];
+          weightSum += w;
+          if (previousOtherIndex[k] >= 0)
           {
-            const Surface& stored = eye.previousSurface[previousOwn];
-            const float w =
-              gate * bilateralWeight(asSeenFrom(s, previousOwnDepth), stored, p.crossView);
-            sum += w * eye.previousRaw[previousOwn];
-            weightSum += w;
-            if (previousOther >= 0)
-            {
-              const float wr = gate * otherEyeWeight *
-                bilateralWeight(asSeenFrom(s, previousOtherDepth),
-                  other.previousSurface[previousOther], p.crossView);
-              sum += wr * other.previousRaw[previousOther];
-              weightSum += wr;
-            }
+            const float wr = weightPreviousOther[k];
+            sum += wr * other.previousRaw[previousOtherIndex[k]];
+            weightSum += wr;
           }
         }
         eye.fused.set(i, sum / weightSum);
@@ -1932,56 +2081,140 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           otherOnScreen[k] = onRay & onScreen ? 1.0f : 0.0f;
         }
       }
-      for (int x = span.begin; x < span.end; ++x)
+      const std::size_t row = rowStart + span.begin; // pixel of x = span.begin
+      if (!blend)
       {
-        const std::size_t i = rowStart + x;
-        const int k = x - span.begin;
-        const Surface& s = eye.surface[i];
-        glm::vec4 value = eye.firstStep[i];
-        if (blend && s.kind != SurfaceNone && otherOnScreen[k] > 0.0f)
+        for (int k = 0; k < count; ++k)
         {
-          const float depth = otherDepth[k];
-          const BilinearTaps taps =
-            bilinearTaps(glm::vec2(otherPixelX[k], otherPixelY[k]), width, height);
-          glm::vec4 otherValue(0.0f);
-          glm::vec3 otherAlbedo(0.0f);
-          float otherLuminance = 0.0f, otherVariance = 0.0f;
-          float weightSum = 0.0f;
-          for (int t = 0; t < taps.count; ++t)
+          for (int c = 0; c < 4; ++c)
           {
-            const std::size_t j = taps.index[t];
-            const Surface& stored = other.surface[j];
-            if (!consistentSurface(stored, depth, s.normal, s.gradientMagnitude, s.depthSpread,
-                  p.depthTolerance, p.normalCosine, p.normalTestGradient))
-            {
-              continue;
-            }
-            const float w = taps.weight[t];
-            otherValue += w * other.firstStep[j];
-            otherAlbedo += w * stored.albedo;
-            otherLuminance += w * other.filteredLuminance[j];
-            otherVariance += w * other.variance[source][j];
-            weightSum += w;
-          }
-          if (weightSum > 0.05f)
-          {
-            otherValue /= weightSum;
-            otherAlbedo /= weightSum;
-            // The paper's lambda, and how far the eyes agree within their noise (both in
-            // demodulated luminance, where the wavelet filter's variance lives).
-            const float lambda =
-              stereoBlendWeight(s.albedo, otherAlbedo, p.stereoAlpha, p.stereoBeta);
-            const float agreement =
-              stereoAgreement(eye.filteredLuminance[i] - otherLuminance / weightSum,
-                eye.variance[source][i] + otherVariance / weightSum, p.stereoAgreementWidth);
-            const float otherWeight = (1.0f - lambda) * agreement;
-            value = (1.0f - otherWeight) * value + otherWeight * otherValue;
+            out[4 * (row + k) + c] = eye.firstStep[row + k][c];
           }
         }
-        out[4 * i] = value.x;
-        out[4 * i + 1] = value.y;
-        out[4 * i + 2] = value.z;
-        out[4 * i + 3] = value.w;
+        return;
+      }
+      // Then three steps, as in the cross-view stage: the other eye's bilinear taps looked up
+      // and tested pixel by pixel (the disocclusion tests branch), their weighted sums into
+      // planes; lambda, the agreement and the blend over those planes in a loop GCC vectorises;
+      // the loop computes them for pixels without a consistent tap too, and keeps their own
+      // value. Every value is computed with the operations of a single per-pixel loop in their
+      // order.
+      constexpr int PlaneCount = 11; // the other eye's sums, their weight, its blend weight
+      thread_local std::vector<float> planes;
+      planes.resize(static_cast<std::size_t>(count) * PlaneCount);
+      float* __restrict otherRed = planes.data();
+      float* __restrict otherGreen = planes.data() + count;
+      float* __restrict otherBlue = planes.data() + 2 * count;
+      float* __restrict otherCoverage = planes.data() + 3 * count;
+      float* __restrict otherAlbedoRed = planes.data() + 4 * count;
+      float* __restrict otherAlbedoGreen = planes.data() + 5 * count;
+      float* __restrict otherAlbedoBlue = planes.data() + 6 * count;
+      float* __restrict otherLuminanceSum = planes.data() + 7 * count;
+      float* __restrict otherVarianceSum = planes.data() + 8 * count;
+      float* __restrict tapWeightSum = planes.data() + 9 * count;
+      for (int k = 0; k < count; ++k)
+      {
+        const Surface& s = eye.surface[row + k];
+        tapWeightSum[k] = 0.0f;
+        if (s.kind == SurfaceNone || !(otherOnScreen[k] > 0.0f))
+        {
+          continue;
+        }
+        const float depth = otherDepth[k];
+        const BilinearTaps taps =
+          bilinearTaps(glm::vec2(otherPixelX[k], otherPixelY[k]), width, height);
+        glm::vec4 otherValue(0.0f);
+        glm::vec3 otherAlbedo(0.0f);
+        float otherLuminance = 0.0f, otherVariance = 0.0f;
+        float weightSum = 0.0f;
+        for (int t = 0; t < taps.count; ++t)
+        {
+          const std::size_t j = taps.index[t];
+          const Surface& stored = other.surface[j];
+          if (!consistentSurface(stored, depth, s.normal, s.gradientMagnitude, s.depthSpread,
+                p.depthTolerance, p.normalCosine, p.normalTestGradient))
+          {
+            continue;
+          }
+          const float w = taps.weight[t];
+          otherValue += w * other.firstStep[j];
+          otherAlbedo += w * stored.albedo;
+          otherLuminance += w * other.filteredLuminance[j];
+          otherVariance += w * other.variance[source][j];
+          weightSum += w;
+        }
+        otherRed[k] = otherValue.x;
+        otherGreen[k] = otherValue.y;
+        otherBlue[k] = otherValue.z;
+        otherCoverage[k] = otherValue.w;
+        otherAlbedoRed[k] = otherAlbedo.x;
+        otherAlbedoGreen[k] = otherAlbedo.y;
+        otherAlbedoBlue[k] = otherAlbedo.z;
+        otherLuminanceSum[k] = otherLuminance;
+        otherVarianceSum[k] = otherVariance;
+        tapWeightSum[k] = weightSum;
+      }
+
+      const glm::vec4* __restrict ownValue = eye.firstStep.data() + row;
+      const float* __restrict albedoRed = eye.guide.albedo[0].data() + row;
+      const float* __restrict albedoGreen = eye.guide.albedo[1].data() + row;
+      const float* __restrict albedoBlue = eye.guide.albedo[2].data() + row;
+      const float* __restrict ownLuminance = eye.filteredLuminance.data() + row;
+      const float* __restrict ownVariance = eye.variance[source].data() + row;
+      float* __restrict outRow = out + 4 * row;
+      float* __restrict otherWeightOf = planes.data() + 10 * count;
+      const float stereoAlpha = p.stereoAlpha;
+      const float stereoBeta = p.stereoBeta;
+      const float agreementWidth = p.stereoAgreementWidth;
+      // The other eye's weight in a loop of its own: with the blend in the same loop, GCC moves
+      // this arithmetic under the choice between the blend and the own value, and no longer
+      // vectorises. Instantiated with and without the agreement (the paper's D2): GCC 12 does
+      // not vectorise a choice made on a flag that is the same for the whole loop.
+      const auto otherWeightRow = [&](auto withAgreement) HV_ALWAYS_INLINE
+      {
+        constexpr bool WithAgreement = decltype(withAgreement)::value;
+#pragma GCC ivdep
+        for (int k = 0; k < count; ++k)
+        {
+          const float weightSum = tapWeightSum[k];
+          const glm::vec3 otherAlbedo =
+            glm::vec3(otherAlbedoRed[k], otherAlbedoGreen[k], otherAlbedoBlue[k]) / weightSum;
+          // The paper's lambda, and how far the eyes agree within their noise (both in
+          // demodulated luminance, where the wavelet filter's variance lives).
+          const float lambda =
+            stereoBlendWeight(glm::vec3(albedoRed[k], albedoGreen[k], albedoBlue[k]), otherAlbedo,
+              stereoAlpha, stereoBeta);
+          float agreement = 1.0f;
+          if constexpr (WithAgreement)
+          {
+            agreement = stereoAgreementTerm(ownLuminance[k] - otherLuminanceSum[k] / weightSum,
+              ownVariance[k] + otherVarianceSum[k] / weightSum, agreementWidth);
+          }
+          otherWeightOf[k] = (1.0f - lambda) * agreement;
+        }
+      };
+      if (agreementWidth > 0.0f)
+      {
+        otherWeightRow(std::true_type());
+      }
+      else
+      {
+        otherWeightRow(std::false_type());
+      }
+#pragma GCC ivdep
+      for (int k = 0; k < count; ++k)
+      {
+        const glm::vec4 value = ownValue[k];
+        const float weightSum = tapWeightSum[k];
+        const float otherWeight = otherWeightOf[k];
+        const glm::vec4 otherValue =
+          glm::vec4(otherRed[k], otherGreen[k], otherBlue[k], otherCoverage[k]) / weightSum;
+        const glm::vec4 blended = (1.0f - otherWeight) * value + otherWeight * otherValue;
+        const bool useOther = weightSum > 0.05f;
+        outRow[4 * k] = useOther ? blended.x : value.x;
+        outRow[4 * k + 1] = useOther ? blended.y : value.y;
+        outRow[4 * k + 2] = useOther ? blended.z : value.z;
+        outRow[4 * k + 3] = useOther ? blended.w : value.w;
       }
     });
   this->Statistics.milliseconds[4] = millisecondsSince(stageStart);

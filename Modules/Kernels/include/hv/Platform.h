@@ -46,9 +46,12 @@ HV_FUNCTION float luminance(const glm::vec3& rgb)
   return 0.2126f * rgb.x + 0.7152f * rgb.y + 0.0722f * rgb.z;
 }
 
+// x < lo ? lo : (x > hi ? hi : x) for lo <= hi, a NaN passing through, written as glm's max
+// then min (glm::clamp): the nested choice kept GCC 12 from vectorising a loop that called it
+// beside other code (the cross-view weights; "control flow in loop").
 HV_FUNCTION float clampf(float x, float lo, float hi)
 {
-  return x < lo ? lo : (x > hi ? hi : x);
+  return glm::clamp(x, lo, hi);
 }
 }
 

@@ -244,6 +244,15 @@ HV_FUNCTION float stereoBlendWeight(
 // dependence of the phase function and the specular lobe (the eyes see a point some
 // degrees apart), the other eye's interpolation between pixel centres, a wrong
 // correspondence in translucent tissue. The blend becomes v_L + (1 - lambda) a (v_R - v_L).
+// stereoAgreementTerm is the formula alone, for agreementWidth > 0 (for a vectorised loop,
+// which cannot hold the test; see crossViewCoverageTerm).
+HV_FUNCTION float stereoAgreementTerm(
+  float luminanceDifference, float varianceSum, float agreementWidth)
+{
+  return exponentialOfNegative(luminanceDifference * luminanceDifference /
+    (2.0f * agreementWidth * agreementWidth * glm::max(varianceSum, 0.0f) + 1e-20f));
+}
+
 HV_FUNCTION float stereoAgreement(
   float luminanceDifference, float varianceSum, float agreementWidth)
 {
@@ -251,8 +260,7 @@ HV_FUNCTION float stereoAgreement(
   {
     return 1.0f;
   }
-  return exponentialOfNegative(luminanceDifference * luminanceDifference /
-    (2.0f * agreementWidth * agreementWidth * glm::max(varianceSum, 0.0f) + 1e-20f));
+  return stereoAgreementTerm(luminanceDifference, varianceSum, agreementWidth);
 }
 
 // The variance of a pixel's coverage accumulated over `frames` raw frames, a (1 - a) / frames:
@@ -292,6 +300,19 @@ HV_FUNCTION float coverageSharpness(float coverage, float frames, float agreemen
 // silhouette the eyes see the edge from two sides (parallax) and their coverages there differ
 // systematically, which biased the edge one-sidedly; inside translucent material they differ by
 // noise only.
+// crossViewCoverageTerm is the formula alone, for agreementWidth > 0: a loop over a row that
+// GCC vectorises cannot hold the test (a choice made on a value that is the same for every pixel),
+// so the caller makes it.
+HV_FUNCTION float crossViewCoverageTerm(
+  float coverage, float samples, float otherCoverage, float otherSamples, float agreementWidth)
+{
+  const float difference = clampf(coverage, 0.0f, 1.0f) - clampf(otherCoverage, 0.0f, 1.0f);
+  const float variance =
+    coverageVariance(coverage, samples) + coverageVariance(otherCoverage, otherSamples);
+  return exponentialOfNegative(
+    difference * difference / (2.0f * agreementWidth * agreementWidth * variance + 1e-12f));
+}
+
 HV_FUNCTION float crossViewCoverage(
   float coverage, float samples, float otherCoverage, float otherSamples, float agreementWidth)
 {
@@ -299,11 +320,7 @@ HV_FUNCTION float crossViewCoverage(
   {
     return 1.0f;
   }
-  const float difference = clampf(coverage, 0.0f, 1.0f) - clampf(otherCoverage, 0.0f, 1.0f);
-  const float variance =
-    coverageVariance(coverage, samples) + coverageVariance(otherCoverage, otherSamples);
-  return exponentialOfNegative(
-    difference * difference / (2.0f * agreementWidth * agreementWidth * variance + 1e-12f));
+  return crossViewCoverageTerm(coverage, samples, otherCoverage, otherSamples, agreementWidth);
 }
 
 // Albedo demodulation (Schied et al. 2017): filtering the incident-light factor keeps texture
