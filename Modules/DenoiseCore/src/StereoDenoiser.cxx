@@ -1358,7 +1358,6 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
     [&](int e, int y) HV_WIDEST_VECTORS
     {
       EyeState& eye = impl.eyes[e];
-      const glm::mat4& inverse = inverseViewProjection[e];
       const RowSpan& span = eye.span[static_cast<std::size_t>(y)];
       RowSpan& guideSpan = eye.guideSpan[static_cast<std::size_t>(y)];
       for (int x = guideSpan.begin; x < guideSpan.end; ++x)
@@ -1366,33 +1365,85 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         eye.guide.valid[static_cast<std::size_t>(y) * width + x] = 0.0f;
       }
       guideSpan = span;
-      for (int x = span.begin; x < span.end; ++x)
+      // In loops over the row that vectorise, as the temporal moments: the 3x3 sums tap by tap
+      // (a pixel has its own scatter point where the mapper's buffer says so, and its depth is
+      // the buffer's; a tap without adds an exact 0), and the points on the pixel-centre rays.
+      // Each value is computed with the operations of a per-pixel loop in their order.
+      const int count = span.end - span.begin;
+      if (count <= 0)
       {
-        const std::size_t i = static_cast<std::size_t>(y) * width + x;
+        return;
+      }
+      const std::size_t row = static_cast<std::size_t>(y) * width + span.begin;
+      thread_local std::vector<float> planes;
+      planes.assign(static_cast<std::size_t>(count) * 8, 0.0f);
+      float* __restrict depthSum = planes.data();
+      float* __restrict depthSquareSum = planes.data() + count;
+      float* __restrict ownCount = planes.data() + 2 * count;
+      float* __restrict depthOf = planes.data() + 3 * count;
+      float* __restrict pointX = planes.data() + 4 * count;
+      float* __restrict pointY = planes.data() + 5 * count;
+      float* __restrict pointZ = planes.data() + 6 * count;
+      float* __restrict depthSpread = planes.data() + 7 * count;
+      const unsigned char* __restrict ownScatter = eyes[e].firstScatterValid;
+      const float* __restrict frameDepth = eyes[e].depth;
+      for (int dy = -1; dy <= 1; ++dy)
+      {
+        if (y + dy < 0 || y + dy >= height)
+        {
+          continue;
+        }
+        for (int dx = -1; dx <= 1; ++dx)
+        {
+          const int first = glm::max(0, -dx - span.begin);
+          const int last = glm::min(count, width - dx - span.begin);
+          const std::ptrdiff_t offset = static_cast<std::ptrdiff_t>(dy) * width + dx;
+#pragma GCC ivdep
+          for (int k = first; k < last; ++k)
+          {
+            const std::size_t j = row + k + offset;
+            const float depth = frameDepth[j];
+            const bool own = ownScatter[j] != 0;
+            depthSum[k] += own ? depth : 0.0f;
+            depthSquareSum[k] += own ? depth * depth : 0.0f;
+            ownCount[k] += own ? 1.0f : 0.0f;
+          }
+        }
+      }
+      for (int k = 0; k < count; ++k)
+      {
+        const Surface& s = eye.surface[row + k];
+        depthOf[k] = s.depth;
+        pointX[k] = s.firstScatterPosition.x;
+        pointY[k] = s.firstScatterPosition.y;
+        pointZ[k] = s.firstScatterPosition.z;
+      }
+      const glm::mat4 inverse = inverseViewProjection[e];
+      const glm::mat4 view = eye.view;
+#pragma GCC ivdep
+      for (int k = 0; k < count; ++k)
+      {
+        glm::vec3 point(pointX[k], pointY[k], pointZ[k]);
+        pointOnPixelRay(inverse, view, span.begin + k, y, width, height, depthOf[k], point);
+        pointX[k] = point.x;
+        pointY[k] = point.y;
+        pointZ[k] = point.z;
+        const float n = ownCount[k];
+        const float mean = depthSum[k] / glm::max(n, 1.0f);
+        const float spread = std::sqrt(glm::max(depthSquareSum[k] / n - mean * mean, 0.0f));
+        depthSpread[k] = n > 1.0f ? spread : 0.0f;
+      }
+      for (int k = 0; k < count; ++k)
+      {
+        const std::size_t i = row + k;
         Surface& s = eye.surface[i];
         if (s.kind == SurfaceNone)
         {
           eye.guide.valid[i] = 0.0f;
           continue;
         }
-        pointOnPixelRay(inverse, eye.view, x, y, width, height, s.depth, s.firstScatterPosition);
-        float sum = 0.0f, squareSum = 0.0f;
-        int count = 0;
-        forStencilTaps(x, y, width, height, 1,
-          [&](std::size_t j, int, int)
-          {
-            const Surface& n = eye.surface[j];
-            if (n.kind == SurfaceOwn)
-            {
-              sum += n.depth;
-              squareSum += n.depth * n.depth;
-              ++count;
-            }
-          });
-        const float mean = sum / static_cast<float>(glm::max(count, 1));
-        s.depthSpread = count > 1
-          ? std::sqrt(glm::max(squareSum / static_cast<float>(count) - mean * mean, 0.0f))
-          : 0.0f;
+        s.firstScatterPosition = glm::vec3(pointX[k], pointY[k], pointZ[k]);
+        s.depthSpread = depthSpread[k];
         eye.guide.set(i, s);
       }
     });
