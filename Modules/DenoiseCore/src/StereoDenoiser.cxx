@@ -143,18 +143,26 @@ struct GuidePlanes
 {
   std::vector<float> depth, depthSpread, gradientMagnitude, normal[3], albedo[3], valid;
   std::vector<float> coverageSharpness;
+  // The reprojected point (Surface::firstScatterPosition), which the cross-view and temporal
+  // stages read a row at a time.
+  std::vector<float> point[3];
 
   void assign(std::size_t n)
   {
-    for (std::vector<float>* plane : { &this->depth, &this->depthSpread, &this->gradientMagnitude,
-           &this->normal[0], &this->normal[1], &this->normal[2], &this->albedo[0], &this->albedo[1],
-           &this->albedo[2], &this->valid, &this->coverageSharpness })
+    for (std::vector<float>* plane :
+      { &this->depth, &this->depthSpread, &this->gradientMagnitude, &this->normal[0],
+        &this->normal[1], &this->normal[2], &this->albedo[0], &this->albedo[1], &this->albedo[2],
+        &this->valid, &this->coverageSharpness, &this->point[0], &this->point[1], &this->point[2] })
     {
       plane->assign(n, 0.0f);
     }
   }
   void set(std::size_t i, const Surface& s)
   {
+    for (int c = 0; c < 3; ++c)
+    {
+      this->point[c][i] = s.firstScatterPosition[c];
+    }
     this->depth[i] = s.depth;
     this->depthSpread[i] = s.depthSpread;
     this->gradientMagnitude[i] = s.gradientMagnitude;
@@ -631,8 +639,7 @@ enum Plane
   DepthDifferenceSquare,
   NormalDifferenceSquare,
   RelightingRatio,
-  Point = RelightingRatio + 4,
-  BlendedInfo = Point + 3,
+  BlendedInfo = RelightingRatio + 4,
   DepthJitter = BlendedInfo + HistoryInfoPlanes::FieldCount,
   NormalJitter,
   TemporalPlaneCount
@@ -1376,7 +1383,8 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       }
       const std::size_t row = static_cast<std::size_t>(y) * width + span.begin;
       thread_local std::vector<float> planes;
-      planes.assign(static_cast<std::size_t>(count) * 8, 0.0f);
+      planes.resize(static_cast<std::size_t>(count) * 8);
+      std::fill_n(planes.data(), 3 * count, 0.0f); // the sums
       float* __restrict depthSum = planes.data();
       float* __restrict depthSquareSum = planes.data() + count;
       float* __restrict ownCount = planes.data() + 2 * count;
@@ -1463,27 +1471,20 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       EyeState& other = impl.eyes[1 - e];
       // The row's points projected first, in a loop of their own that vectorises: into this
       // eye's previous frame (k_L^{t-1}, kept for the temporal blending) and into the other
-      // eye now (k_R^t). The points are copied to planes (GCC does not vectorise the strided
-      // reads of glm's vectors in the surfaces), and the matrices so that the stores cannot
-      // alias them.
+      // eye now (k_R^t). The points are read from the guide's planes (GCC does not vectorise the
+      // strided reads of glm's vectors in the surfaces), and the matrices are copied so that the
+      // stores cannot alias them.
       const int count = end - begin;
       const std::size_t row = static_cast<std::size_t>(y) * width + begin; // pixel of x = begin
       thread_local std::vector<float> scratch;
-      scratch.resize(static_cast<std::size_t>(count) * 7);
+      scratch.resize(static_cast<std::size_t>(count) * 4);
       float* __restrict otherPixelX = scratch.data();
       float* __restrict otherPixelY = scratch.data() + count;
       float* __restrict otherDepth = scratch.data() + 2 * count;
       float* __restrict otherOnScreen = scratch.data() + 3 * count;
-      float* __restrict pointX = scratch.data() + 4 * count;
-      float* __restrict pointY = scratch.data() + 5 * count;
-      float* __restrict pointZ = scratch.data() + 6 * count;
-      for (int x = 0; x < count; ++x)
-      {
-        const glm::vec3& point = eye.surface[row + x].firstScatterPosition;
-        pointX[x] = point.x;
-        pointY[x] = point.y;
-        pointZ[x] = point.z;
-      }
+      const float* __restrict pointX = eye.guide.point[0].data() + row;
+      const float* __restrict pointY = eye.guide.point[1].data() + row;
+      const float* __restrict pointZ = eye.guide.point[2].data() + row;
       float* __restrict previousPixelX = eye.reprojectedPixel[0].data() + row;
       float* __restrict previousPixelY = eye.reprojectedPixel[1].data() + row;
       float* __restrict previousDepth = eye.reprojectedDepth.data() + row;
@@ -1780,10 +1781,6 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         plane(ReprojectedDepth)[k] = reprojected.depth;
         plane(DepthDifferenceSquare)[k] = reprojected.depthDifferenceSquare;
         plane(NormalDifferenceSquare)[k] = reprojected.normalDifferenceSquare;
-        for (int c = 0; c < 3; ++c)
-        {
-          plane(Point + c)[k] = s.firstScatterPosition[c];
-        }
         if (relight)
         {
           for (int c = 0; c < 4; ++c)
@@ -1809,9 +1806,9 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       const float* __restrict ratioGreen = plane(RelightingRatio + 1);
       const float* __restrict ratioBlue = plane(RelightingRatio + 2);
       const float* __restrict relitHistoryAgrees = plane(RelightingRatio + 3);
-      const float* __restrict pointX = plane(Point);
-      const float* __restrict pointY = plane(Point + 1);
-      const float* __restrict pointZ = plane(Point + 2);
+      const float* __restrict pointX = eye.guide.point[0].data() + row;
+      const float* __restrict pointY = eye.guide.point[1].data() + row;
+      const float* __restrict pointZ = eye.guide.point[2].data() + row;
       float* __restrict depthJitter = plane(DepthJitter);
       float* __restrict normalJitter = plane(NormalJitter);
       const float* __restrict currentRed = eye.fused.channel[0].data() + row;
