@@ -9,6 +9,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <sstream>
 #include <type_traits>
@@ -46,7 +47,12 @@ double millisecondsSince(Clock::time_point start)
 #else
 #define HV_WIDEST_VECTORS
 #endif
-// For a lambda called inside one of those loops: inlined, it is compiled into each clone.
+// For a lambda or helper called inside one of those loops: inlined, it is compiled into each
+// clone. A helper left out of line and not cloned runs its baseline (SSE-encoded) version from
+// the AVX-512 clone, and GCC 12 made that call without a vzeroupper: with bilinearTaps called
+// so, D2 took 51 ms per 1440x936 stereo pair instead of 15.8 on the project's machine. The
+// test Build.WideClonesCallNoBaselineCode (Utilities/Scripts/check-clone-calls.sh) fails on
+// such a call.
 #if defined(__GNUC__)
 #define HV_ALWAYS_INLINE __attribute__((always_inline))
 #else
@@ -331,7 +337,7 @@ struct BilinearTaps
   int count = 0;
 };
 
-BilinearTaps bilinearTaps(const glm::vec2& pixel, int width, int height)
+HV_ALWAYS_INLINE inline BilinearTaps bilinearTaps(const glm::vec2& pixel, int width, int height)
 {
   BilinearTaps taps;
   const float fx = pixel.x - 0.5f;
@@ -380,8 +386,8 @@ Surface asSeenFrom(const Surface& surface, float viewDepth)
 // them see the same surface; clamped to the range of the four bilinear taps so that the
 // cubic's lobes cannot overshoot. Elsewhere (an edge, a disocclusion, the image border) the
 // bilinear value stays.
-void fetchBicubic(const EyeState& eye, const Surface& s, const glm::vec2& pixel, float depth,
-  int width, int height, const DenoiserParameters& p, const BilinearTaps& bilinear,
+HV_WIDEST_VECTORS void fetchBicubic(const EyeState& eye, const Surface& s, const glm::vec2& pixel,
+  float depth, int width, int height, const DenoiserParameters& p, const BilinearTaps& bilinear,
   glm::vec4& value)
 {
   const float fx = pixel.x - 0.5f;
@@ -417,63 +423,6 @@ void fetchBicubic(const EyeState& eye, const Surface& s, const glm::vec2& pixel,
     high = glm::max(high, eye.history[bilinear.index[t]]);
   }
   value = glm::clamp(sum, low, high);
-}
-
-// The history of pixel i, whose surface is s, at pi^{t-1}(x(k^t)) (EyeState::reprojectedPixel).
-HV_WIDEST_VECTORS ReprojectedHistory reprojectHistory(const EyeState& eye, const Surface& s,
-  std::size_t i, int width, int height, const DenoiserParameters& p)
-{
-  ReprojectedHistory reprojected;
-  if (!(eye.reprojectedOnScreen[i] > 0.0f))
-  {
-    return reprojected;
-  }
-  const glm::vec2 pixel(eye.reprojectedPixel[0][i], eye.reprojectedPixel[1][i]);
-  const float depth = eye.reprojectedDepth[i];
-  const BilinearTaps taps = bilinearTaps(pixel, width, height);
-  HistoryInfo& previous = reprojected.info;
-  float weightSum = 0.0f;
-  float bestWeight = -1.0f;
-  int bestTap = 0;
-  for (int t = 0; t < taps.count; ++t)
-  {
-    const Surface& stored = eye.previousSurface[taps.index[t]];
-    if (!consistentSurface(stored, depth, s.normal, s.gradientMagnitude, s.depthSpread,
-          p.depthTolerance, p.normalCosine, p.normalTestGradient))
-    {
-      continue;
-    }
-    const float w = taps.weight[t];
-    reprojected.value += w * eye.history[taps.index[t]];
-    previous.addWeighted(w, eye.historyInfo[taps.index[t]]);
-    const float depthDifference = stored.depth - depth;
-    reprojected.depthDifferenceSquare += w * depthDifference * depthDifference;
-    const float normalDifference = 1.0f - glm::dot(stored.normal, s.normal);
-    reprojected.normalDifferenceSquare += w * normalDifference * normalDifference;
-    weightSum += w;
-    if (w > bestWeight)
-    {
-      bestWeight = w;
-      bestTap = t;
-    }
-  }
-  if (weightSum > 0.05f)
-  {
-    reprojected.zeta =
-      bilateralWeight(asSeenFrom(s, depth), eye.previousSurface[taps.index[bestTap]], p.temporal);
-    const float inverse = 1.0f / weightSum;
-    reprojected.value *= inverse;
-    previous.scale(inverse);
-    reprojected.depth = depth;
-    reprojected.depthDifferenceSquare *= inverse;
-    reprojected.normalDifferenceSquare *= inverse;
-    reprojected.valid = true;
-    if (p.bicubicHistory && taps.count == 4 && weightSum > 0.999f)
-    {
-      fetchBicubic(eye, s, pixel, depth, width, height, p, taps, reprojected.value);
-    }
-  }
-  return reprojected;
 }
 
 // Calls visit(j, dx, dy) for each tap of the 3x3 stencil with spacing `step` around (x, y)
@@ -644,6 +593,273 @@ enum Plane
   NormalJitter,
   TemporalPlaneCount
 };
+
+// Surface and HistoryInfo as arrays of floats: the history lookup reads the stored ones at
+// computed indices (GCC vectorises such loads from a float array, not from struct fields).
+constexpr int SurfaceFloats = sizeof(Surface) / sizeof(float);
+static_assert(sizeof(Surface) % sizeof(float) == 0 &&
+    sizeof(HistoryInfo) == HistoryInfoPlanes::FieldCount * sizeof(float),
+  "the history lookup reads Surface and HistoryInfo as floats");
+constexpr int StoredDepth = offsetof(Surface, depth) / sizeof(float);
+constexpr int StoredNormal = offsetof(Surface, normal) / sizeof(float);
+constexpr int StoredGradient = offsetof(Surface, gradientMagnitude) / sizeof(float);
+constexpr int StoredAlbedo = offsetof(Surface, albedo) / sizeof(float);
+constexpr int StoredDepthSpread = offsetof(Surface, depthSpread) / sizeof(float);
+constexpr int StoredDepthJitter = offsetof(Surface, depthJitter) / sizeof(float);
+constexpr int StoredNormalJitter = offsetof(Surface, normalJitter) / sizeof(float);
+constexpr int StoredKind = offsetof(Surface, kind) / sizeof(float);
+
+// The history of the pixels [begin, begin + count) of row y at pi^{t-1}(x(k^t))
+// (EyeState::reprojectedPixel): bilinear over the taps whose stored surface is the same point
+// (consistentSurface), with the taps' statistics, the depth and normal differences to the stored
+// surfaces, and zeta of the best-weighted tap; into the planes HistoryValid to
+// NormalDifferenceSquare of `planes` (Plane's layout, `count` floats per plane), all 0 where no
+// tap is consistent or their weights sum to 0.05 or less. The taps are four passes over the
+// row, one tap of every pixel each, and an out-of-image or off-screen tap weighs 0, so that the
+// loops have no branches and vectorise; each sum takes the taps in the order of a per-pixel
+// loop over them, skipping the rejected ones (a select of 0), so every value is bit for bit
+// that loop's.
+HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin, int count,
+  int width, int height, const DenoiserParameters& p, float* planes)
+{
+  const auto plane = [&](int index) { return planes + index * count; };
+  std::fill(plane(HistoryValid), plane(RelightingRatio), 0.0f);
+  thread_local std::vector<float> tapWeights;
+  thread_local std::vector<int> tapIndices;
+  tapWeights.resize(static_cast<std::size_t>(count) * 6);
+  tapIndices.resize(static_cast<std::size_t>(count) * 5);
+  const std::size_t row = static_cast<std::size_t>(y) * width + begin;
+  const float* __restrict pixelX = eye.reprojectedPixel[0].data() + row;
+  const float* __restrict pixelY = eye.reprojectedPixel[1].data() + row;
+  const float* __restrict onScreen = eye.reprojectedOnScreen.data() + row;
+  const float* __restrict seen = eye.guide.valid.data() + row;
+  float* __restrict weight00 = tapWeights.data();
+  float* __restrict weight10 = tapWeights.data() + count;
+  float* __restrict weight01 = tapWeights.data() + 2 * count;
+  float* __restrict weight11 = tapWeights.data() + 3 * count;
+  int* __restrict index00 = tapIndices.data();
+  int* __restrict index10 = tapIndices.data() + count;
+  int* __restrict index01 = tapIndices.data() + 2 * count;
+  int* __restrict index11 = tapIndices.data() + 3 * count;
+  // The taps in the order of bilinearTaps: (x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1).
+#pragma GCC ivdep
+  for (int k = 0; k < count; ++k)
+  {
+    // The position is on the screen, or pixel 0 (the cross-view stage's projection), so the
+    // taps' indices are valid whether or not the pixel uses them.
+    const bool use = (onScreen[k] > 0.0f) & (seen[k] > 0.0f);
+    const float fx = pixelX[k] - 0.5f;
+    const float fy = pixelY[k] - 0.5f;
+    // The tap coordinates as floats (whole numbers, exact): GCC 12 vectorises their range tests
+    // and clamps as floats, not as ints. floor(fx) is x0 of bilinearTaps, fx - floor(fx) its ax.
+    const float x0 = std::floor(fx), y0 = std::floor(fy);
+    const float ax = fx - x0;
+    const float ay = fy - y0;
+    const float lastColumn = static_cast<float>(width - 1),
+                lastRow = static_cast<float>(height - 1);
+    const bool inX0 = (x0 >= 0.0f) & (x0 <= lastColumn), inX1 = (x0 >= -1.0f) & (x0 < lastColumn);
+    const bool inY0 = (y0 >= 0.0f) & (y0 <= lastRow), inY1 = (y0 >= -1.0f) & (y0 < lastRow);
+    const int column0 = static_cast<int>(glm::clamp(x0, 0.0f, lastColumn));
+    const int column1 = static_cast<int>(glm::clamp(x0 + 1.0f, 0.0f, lastColumn));
+    const int row0 = static_cast<int>(glm::clamp(y0, 0.0f, lastRow)) * width;
+    const int row1 = static_cast<int>(glm::clamp(y0 + 1.0f, 0.0f, lastRow)) * width;
+    const float w00 = (1.0f - ax) * (1.0f - ay), w10 = ax * (1.0f - ay);
+    const float w01 = (1.0f - ax) * ay, w11 = ax * ay;
+    weight00[k] = use & inX0 & inY0 & (w00 > 0.0f) ? w00 : 0.0f;
+    weight10[k] = use & inX1 & inY0 & (w10 > 0.0f) ? w10 : 0.0f;
+    weight01[k] = use & inX0 & inY1 & (w01 > 0.0f) ? w01 : 0.0f;
+    weight11[k] = use & inX1 & inY1 & (w11 > 0.0f) ? w11 : 0.0f;
+    index00[k] = row0 + column0;
+    index10[k] = row0 + column1;
+    index01[k] = row1 + column0;
+    index11[k] = row1 + column1;
+  }
+
+  float* __restrict weightSum = tapWeights.data() + 4 * count;
+  float* __restrict bestWeight = tapWeights.data() + 5 * count;
+  int* __restrict bestIndex = tapIndices.data() + 4 * count;
+  std::fill_n(weightSum, count, 0.0f);
+  std::fill_n(bestWeight, count, -1.0f);
+  std::copy_n(index00, count, bestIndex);
+  float* __restrict valueRed = plane(HistoryValue);
+  float* __restrict valueGreen = plane(HistoryValue + 1);
+  float* __restrict valueBlue = plane(HistoryValue + 2);
+  float* __restrict valueCoverage = plane(HistoryValue + 3);
+  const HistoryInfoPlanes info(plane(PreviousInfo), count);
+  float* __restrict infoLuminanceMean = info.luminanceMean;
+  float* __restrict infoLuminanceSquareMean = info.luminanceSquareMean;
+  float* __restrict infoSampleCount = info.sampleCount;
+  float* __restrict infoFrames = info.frames;
+  float* __restrict infoDepthDifferenceSquareMean = info.depthDifferenceSquareMean;
+  float* __restrict infoNormalDifferenceSquareMean = info.normalDifferenceSquareMean;
+  float* __restrict infoDepthMean = info.depthMean;
+  float* __restrict depthDifferenceSquare = plane(DepthDifferenceSquare);
+  float* __restrict normalDifferenceSquare = plane(NormalDifferenceSquare);
+  const float* __restrict storedSurfaces =
+    reinterpret_cast<const float*>(eye.previousSurface.data());
+  const std::uint32_t* __restrict storedKinds =
+    reinterpret_cast<const std::uint32_t*>(eye.previousSurface.data());
+  const float* __restrict storedHistory = reinterpret_cast<const float*>(eye.history.data());
+  const float* __restrict storedInfo = reinterpret_cast<const float*>(eye.historyInfo.data());
+  const float* __restrict reprojectedDepth = eye.reprojectedDepth.data() + row;
+  const float* __restrict normalX = eye.guide.normal[0].data() + row;
+  const float* __restrict normalY = eye.guide.normal[1].data() + row;
+  const float* __restrict normalZ = eye.guide.normal[2].data() + row;
+  const float* __restrict gradientMagnitude = eye.guide.gradientMagnitude.data() + row;
+  const float* __restrict depthSpread = eye.guide.depthSpread.data() + row;
+  const float depthTolerance = p.depthTolerance;
+  const float normalCosine = p.normalCosine;
+  const float normalTestGradient = p.normalTestGradient;
+  const auto addTap = [&](const int* __restrict tapIndex, const float* __restrict tapWeight)
+                        HV_ALWAYS_INLINE
+  {
+#pragma GCC ivdep
+    for (int k = 0; k < count; ++k)
+    {
+      const int j = tapIndex[k];
+      const float w = tapWeight[k];
+      // Indices into the float arrays, not pointers to the tap's struct: GCC takes only the
+      // form base[index] for a gather.
+      const int stored = SurfaceFloats * j;
+      const int history = 4 * j;
+      const int tapInfo = HistoryInfoPlanes::FieldCount * j;
+      const float depth = reprojectedDepth[k];
+      const float storedDepth = storedSurfaces[stored + StoredDepth];
+      const glm::vec3 normal(normalX[k], normalY[k], normalZ[k]);
+      const glm::vec3 storedNormal(storedSurfaces[stored + StoredNormal],
+        storedSurfaces[stored + StoredNormal + 1], storedSurfaces[stored + StoredNormal + 2]);
+      const bool take = (w > 0.0f) &
+        consistentSurfaceOfChannels(storedKinds[stored + StoredKind] != SurfaceNone, storedDepth,
+          storedSurfaces[stored + StoredDepthSpread], storedSurfaces[stored + StoredGradient],
+          storedNormal, storedSurfaces[stored + StoredDepthJitter],
+          storedSurfaces[stored + StoredNormalJitter], depth, normal, gradientMagnitude[k],
+          depthSpread[k], depthTolerance, normalCosine, normalTestGradient);
+      // A rejected tap adds 0 times its values, an exact +-0 for the finite values stored
+      // (the sums are never -0). With a select between w h and 0, GCC would load h only for
+      // the taken taps, and it emulates no masked gather.
+      const float taken = take ? w : 0.0f;
+      valueRed[k] += taken * storedHistory[history];
+      valueGreen[k] += taken * storedHistory[history + 1];
+      valueBlue[k] += taken * storedHistory[history + 2];
+      valueCoverage[k] += taken * storedHistory[history + 3];
+      infoLuminanceMean[k] += taken * storedInfo[tapInfo];
+      infoLuminanceSquareMean[k] += taken * storedInfo[tapInfo + 1];
+      infoSampleCount[k] += taken * storedInfo[tapInfo + 2];
+      infoFrames[k] += taken * storedInfo[tapInfo + 3];
+      infoDepthDifferenceSquareMean[k] += taken * storedInfo[tapInfo + 4];
+      infoNormalDifferenceSquareMean[k] += taken * storedInfo[tapInfo + 5];
+      infoDepthMean[k] += taken * storedInfo[tapInfo + 6];
+      const float depthDifference = storedDepth - depth;
+      depthDifferenceSquare[k] += taken * depthDifference * depthDifference;
+      const float normalDifference = 1.0f - glm::dot(storedNormal, normal);
+      normalDifferenceSquare[k] += taken * normalDifference * normalDifference;
+      weightSum[k] += taken;
+      const bool best = take & (w > bestWeight[k]);
+      bestWeight[k] = best ? w : bestWeight[k];
+      bestIndex[k] = best ? j : bestIndex[k];
+    }
+  };
+  addTap(index00, weight00);
+  addTap(index10, weight10);
+  addTap(index01, weight01);
+  addTap(index11, weight11);
+
+  float* __restrict historyValid = plane(HistoryValid);
+  float* __restrict zeta = plane(Zeta);
+  float* __restrict historyDepth = plane(ReprojectedDepth);
+  const float* __restrict albedoRed = eye.guide.albedo[0].data() + row;
+  const float* __restrict albedoGreen = eye.guide.albedo[1].data() + row;
+  const float* __restrict albedoBlue = eye.guide.albedo[2].data() + row;
+  const EdgeStopping edgeStopping = p.temporal;
+#pragma GCC ivdep
+  for (int k = 0; k < count; ++k)
+  {
+    // zeta between the pixel's surface as the previous view sees it and the best tap's, in a
+    // loop of its own: beside the choices below GCC would move it under one and not vectorise.
+    Surface current;
+    current.albedo = glm::vec3(albedoRed[k], albedoGreen[k], albedoBlue[k]);
+    current.normal = glm::vec3(normalX[k], normalY[k], normalZ[k]);
+    current.gradientMagnitude = gradientMagnitude[k];
+    current.depth = reprojectedDepth[k];
+    current.depthSpread = depthSpread[k];
+    const int stored = SurfaceFloats * bestIndex[k];
+    Surface best;
+    best.albedo = glm::vec3(storedSurfaces[stored + StoredAlbedo],
+      storedSurfaces[stored + StoredAlbedo + 1], storedSurfaces[stored + StoredAlbedo + 2]);
+    best.normal = glm::vec3(storedSurfaces[stored + StoredNormal],
+      storedSurfaces[stored + StoredNormal + 1], storedSurfaces[stored + StoredNormal + 2]);
+    best.gradientMagnitude = storedSurfaces[stored + StoredGradient];
+    best.depth = storedSurfaces[stored + StoredDepth];
+    best.depthSpread = storedSurfaces[stored + StoredDepthSpread];
+    zeta[k] = bilateralWeight(current, best, edgeStopping);
+  }
+#pragma GCC ivdep
+  for (int k = 0; k < count; ++k)
+  {
+    const bool valid = weightSum[k] > 0.05f;
+    const float inverse = 1.0f / weightSum[k];
+    historyValid[k] = valid ? 1.0f : 0.0f;
+    zeta[k] = valid ? zeta[k] : 0.0f;
+    historyDepth[k] = valid ? reprojectedDepth[k] : 0.0f;
+    valueRed[k] = valid ? valueRed[k] * inverse : 0.0f;
+    valueGreen[k] = valid ? valueGreen[k] * inverse : 0.0f;
+    valueBlue[k] = valid ? valueBlue[k] * inverse : 0.0f;
+    valueCoverage[k] = valid ? valueCoverage[k] * inverse : 0.0f;
+    infoLuminanceMean[k] = valid ? infoLuminanceMean[k] * inverse : 0.0f;
+    infoLuminanceSquareMean[k] = valid ? infoLuminanceSquareMean[k] * inverse : 0.0f;
+    infoSampleCount[k] = valid ? infoSampleCount[k] * inverse : 0.0f;
+    infoFrames[k] = valid ? infoFrames[k] * inverse : 0.0f;
+    infoDepthDifferenceSquareMean[k] = valid ? infoDepthDifferenceSquareMean[k] * inverse : 0.0f;
+    infoNormalDifferenceSquareMean[k] = valid ? infoNormalDifferenceSquareMean[k] * inverse : 0.0f;
+    infoDepthMean[k] = valid ? infoDepthMean[k] * inverse : 0.0f;
+    depthDifferenceSquare[k] = valid ? depthDifferenceSquare[k] * inverse : 0.0f;
+    normalDifferenceSquare[k] = valid ? normalDifferenceSquare[k] * inverse : 0.0f;
+  }
+
+  // The optional Catmull-Rom fetch where all four taps are inside the image and consistent.
+  if (p.bicubicHistory)
+  {
+    for (int k = 0; k < count; ++k)
+    {
+      if (!(historyValid[k] > 0.0f) || !(weightSum[k] > 0.999f))
+      {
+        continue;
+      }
+      const glm::vec2 pixel(pixelX[k], pixelY[k]);
+      const BilinearTaps taps = bilinearTaps(pixel, width, height);
+      if (taps.count != 4)
+      {
+        continue;
+      }
+      glm::vec4 value(valueRed[k], valueGreen[k], valueBlue[k], valueCoverage[k]);
+      fetchBicubic(
+        eye, eye.surface[row + k], pixel, reprojectedDepth[k], width, height, p, taps, value);
+      valueRed[k] = value.x;
+      valueGreen[k] = value.y;
+      valueBlue[k] = value.z;
+      valueCoverage[k] = value.w;
+    }
+  }
+}
+
+// Pixel k's history from reprojectHistoryRow's planes.
+HV_ALWAYS_INLINE inline ReprojectedHistory reprojectedHistoryAt(
+  const float* planes, int count, int k)
+{
+  const auto plane = [&](int index) { return planes + index * count; };
+  ReprojectedHistory reprojected;
+  reprojected.valid = plane(HistoryValid)[k] > 0.0f;
+  for (int c = 0; c < 4; ++c)
+  {
+    reprojected.value[c] = plane(HistoryValue + c)[k];
+  }
+  reprojected.info = HistoryInfoPlanes(const_cast<float*>(plane(PreviousInfo)), count).at(k);
+  reprojected.zeta = plane(Zeta)[k];
+  reprojected.depth = plane(ReprojectedDepth)[k];
+  reprojected.depthDifferenceSquare = plane(DepthDifferenceSquare)[k];
+  reprojected.normalDifferenceSquare = plane(NormalDifferenceSquare)[k];
+  return reprojected;
+}
 }
 
 namespace crossview
@@ -967,6 +1183,15 @@ struct StereoDenoiser::Internals
       {
         const int y = region.y + row;
         const RowSpan& span = eye.span[static_cast<std::size_t>(y)];
+        const int count = span.end - span.begin;
+        if (count <= 0)
+        {
+          return;
+        }
+        thread_local std::vector<float> historyPlanes;
+        historyPlanes.resize(static_cast<std::size_t>(count) * temporal::TemporalPlaneCount);
+        temporal::reprojectHistoryRow(
+          eye, y, span.begin, count, width, height, p, historyPlanes.data());
         for (int x = span.begin; x < span.end; ++x)
         {
           const std::size_t i = static_cast<std::size_t>(y) * width + x;
@@ -975,7 +1200,7 @@ struct StereoDenoiser::Internals
             continue;
           }
           const ReprojectedHistory& reprojected = eye.relitHistory[i] =
-            reprojectHistory(eye, eye.surface[i], i, width, height, p);
+            temporal::reprojectedHistoryAt(historyPlanes.data(), count, x - span.begin);
           if (!reprojected.valid)
           {
             continue;
@@ -1500,12 +1725,12 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         const glm::vec3 point(pointX[x], pointY[x], pointZ[x]);
         glm::vec2 pixel;
         float depth;
-        previousOnScreen[x] = projectToPixel(previousViewProjection, previousView, width, height,
-                                glm::vec3(toPreviousWorld * glm::vec4(point, 1.0f)), pixel, depth)
-          ? 1.0f
-          : 0.0f;
-        previousPixelX[x] = pixel.x;
-        previousPixelY[x] = pixel.y;
+        const bool previousSeen = projectToPixel(previousViewProjection, previousView, width,
+          height, glm::vec3(toPreviousWorld * glm::vec4(point, 1.0f)), pixel, depth);
+        previousOnScreen[x] = previousSeen ? 1.0f : 0.0f;
+        // Off the screen, pixel 0: the history lookup computes its taps for every pixel.
+        previousPixelX[x] = previousSeen ? pixel.x : 0.0f;
+        previousPixelY[x] = previousSeen ? pixel.y : 0.0f;
         previousDepth[x] = depth;
         otherOnScreen[x] =
           projectToPixel(otherViewProjection, otherView, width, height, point, pixel, depth) ? 1.0f
@@ -1740,12 +1965,12 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       const bool relight = relightEye[e]; // a relit frame reprojected the history already
       const NeighbourhoodMoments moments = neighbourhoodMomentsRow(
         eye.guide, eye.fused, eye.rawLuminance, width, height, y, begin, end);
-      // Three loops: the reprojected history gathered pixel by pixel (its bilinear taps and
-      // their disocclusion tests branch), into planes; the blending over those planes, which
-      // GCC vectorises; and its results written back into the per-pixel structs. The vector
-      // loop computes every value as a single per-pixel loop did, in the same order; where that
-      // loop skipped work (no surface, no history), it computes it anyway and selects what the
-      // skipping gave.
+      // The reprojected history into planes (reprojectHistoryRow, vector loops over the taps; on
+      // a relit frame the history the relighting ratio was computed from, pixel by pixel); the
+      // blending over those planes, which GCC vectorises; and its results written back into the
+      // per-pixel structs. The vector loops compute every value as a single per-pixel loop did,
+      // in the same order; where that loop skipped work (no surface, no history), they compute
+      // it anyway and select what the skipping gave.
       using namespace temporal;
       const int count = end - begin;
       const std::size_t row = static_cast<std::size_t>(y) * width + begin; // pixel of x = begin
@@ -1754,20 +1979,16 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       const auto plane = [&](int index) { return scratch.data() + index * count; };
       const HistoryInfoPlanes previousInfo(plane(PreviousInfo), count);
       const HistoryInfoPlanes blendedInfo(plane(BlendedInfo), count);
-      for (int k = 0; k < count; ++k)
+      std::copy_n(eye.guide.valid.data() + row, count, plane(Seen));
+      if (useHistory && eye.hasPrevious && !relight)
+      {
+        reprojectHistoryRow(eye, y, begin, count, width, height, p, scratch.data());
+      }
+      for (int k = 0; relight && k < count; ++k)
       {
         const std::size_t i = row + k;
-        const Surface& s = eye.surface[i];
-        if (s.kind == SurfaceNone)
-        {
-          continue;
-        }
-        plane(Seen)[k] = 1.0f;
-        const ReprojectedHistory reprojected = !(useHistory && eye.hasPrevious)
-          ? ReprojectedHistory()
-          : relight ? eye.relitHistory[i]
-                    : reprojectHistory(eye, s, i, width, height, p);
-        if (!reprojected.valid)
+        const ReprojectedHistory& reprojected = eye.relitHistory[i];
+        if (eye.surface[i].kind == SurfaceNone || !reprojected.valid)
         {
           continue;
         }
@@ -1775,19 +1996,13 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         for (int c = 0; c < 4; ++c)
         {
           plane(HistoryValue + c)[k] = reprojected.value[c];
+          plane(RelightingRatio + c)[k] = eye.relightingRatio[i][c];
         }
         previousInfo.set(k, reprojected.info);
         plane(Zeta)[k] = reprojected.zeta;
         plane(ReprojectedDepth)[k] = reprojected.depth;
         plane(DepthDifferenceSquare)[k] = reprojected.depthDifferenceSquare;
         plane(NormalDifferenceSquare)[k] = reprojected.normalDifferenceSquare;
-        if (relight)
-        {
-          for (int c = 0; c < 4; ++c)
-          {
-            plane(RelightingRatio + c)[k] = eye.relightingRatio[i][c];
-          }
-        }
       }
 
       const float* __restrict seen = plane(Seen);

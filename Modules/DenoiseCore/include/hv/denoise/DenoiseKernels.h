@@ -180,29 +180,32 @@ HV_FUNCTION void catmullRomWeights(float t, float weights[4])
 // event is mostly a volume event (the mapper's default surface factor 5 makes it a surface
 // event with probability 0.39 at 0.1 and 0.78 at 0.3), the gradient's direction does not
 // shape the light, and a random scatter point's normal is another one each frame. A failure
-// is a disocclusion.
+// is a disocclusion. consistentSurfaceOfChannels takes the stored surface's channels and has no
+// branches, so that a loop over a row that reads the stored surfaces as strided planes vectorises.
+HV_FUNCTION bool consistentSurfaceOfChannels(bool storedSeen, float storedDepth,
+  float storedDepthSpread, float storedGradient, const glm::vec3& storedNormal,
+  float storedDepthJitter, float storedNormalJitter, float reprojectedDepth,
+  const glm::vec3& normal, float gradientMagnitude, float depthSpread, float depthTolerance,
+  float normalCosine, float normalGradient)
+{
+  const float slack =
+    2.0f * depthSlack(storedDepthSpread, storedGradient, depthSpread, gradientMagnitude) +
+    storedDepthJitter;
+  const bool depthAgrees = !(glm::abs(storedDepth - reprojectedDepth) >
+    depthTolerance * glm::max(reprojectedDepth, 1e-6f) + slack);
+  const bool normalsDisagree = (glm::min(storedGradient, gradientMagnitude) > normalGradient) &
+    (glm::dot(storedNormal, normal) < glm::min(normalCosine, 1.0f - storedNormalJitter));
+  return storedSeen & depthAgrees & !normalsDisagree;
+}
+
 HV_FUNCTION bool consistentSurface(const Surface& stored, float reprojectedDepth,
   const glm::vec3& normal, float gradientMagnitude, float depthSpread, float depthTolerance,
   float normalCosine, float normalGradient)
 {
-  if (stored.kind == SurfaceNone)
-  {
-    return false;
-  }
-  const float slack = 2.0f *
-      depthSlack(stored.depthSpread, stored.gradientMagnitude, depthSpread, gradientMagnitude) +
-    stored.depthJitter;
-  if (glm::abs(stored.depth - reprojectedDepth) >
-    depthTolerance * glm::max(reprojectedDepth, 1e-6f) + slack)
-  {
-    return false;
-  }
-  if (glm::min(stored.gradientMagnitude, gradientMagnitude) > normalGradient &&
-    glm::dot(stored.normal, normal) < glm::min(normalCosine, 1.0f - stored.normalJitter))
-  {
-    return false;
-  }
-  return true;
+  return consistentSurfaceOfChannels(stored.kind != SurfaceNone, stored.depth, stored.depthSpread,
+    stored.gradientMagnitude, stored.normal, stored.depthJitter, stored.normalJitter,
+    reprojectedDepth, normal, gradientMagnitude, depthSpread, depthTolerance, normalCosine,
+    normalGradient);
 }
 
 // delta(1 / (T - 1)): the sigmoid of the paper's temporal weight w_v = delta(1/(T-1)) zeta,
