@@ -765,6 +765,13 @@ TEST(StereoDenoiser, BadInputIsRefused)
   EXPECT_FALSE(denoiser.denoise(frames, 2, 0.0f, out, error));
   EXPECT_NE(error.find("differ in size"), std::string::npos) << error;
 
+  // 2^28 pixels: more than the lookups' 32-bit indices reach; refused before a buffer is read.
+  frames[0].width = frames[1].width = 1 << 16;
+  frames[0].height = frames[1].height = 1 << 12;
+  EXPECT_FALSE(denoiser.denoise(frames, 2, 0.0f, out, error));
+  EXPECT_NE(error.find("at most"), std::string::npos) << error;
+  frames[0] = frame.eyes[0].frame();
+
   frames[1] = frame.eyes[1].frame();
   frames[1].albedo = nullptr;
   EXPECT_FALSE(denoiser.denoise(frames, 2, 0.0f, out, error));

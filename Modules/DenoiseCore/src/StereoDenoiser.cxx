@@ -608,6 +608,8 @@ constexpr int StoredDepthSpread = offsetof(Surface, depthSpread) / sizeof(float)
 constexpr int StoredDepthJitter = offsetof(Surface, depthJitter) / sizeof(float);
 constexpr int StoredNormalJitter = offsetof(Surface, normalJitter) / sizeof(float);
 constexpr int StoredKind = offsetof(Surface, kind) / sizeof(float);
+// The most pixels per eye whose stored surfaces a 32-bit index reaches as floats.
+constexpr std::int64_t MaximumPixels = std::numeric_limits<int>::max() / SurfaceFloats;
 
 // The history of the pixels [begin, begin + count) of row y at pi^{t-1}(x(k^t))
 // (EyeState::reprojectedPixel): bilinear over the taps whose stored surface is the same point
@@ -1380,6 +1382,15 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       std::ostringstream message;
       message << "The eyes differ in size (" << width << "x" << height << " and " << f.width
               << "x" << f.height << "); render both eyes at the same resolution.";
+      error = message.str();
+      return false;
+    }
+    if (static_cast<std::int64_t>(f.width) * f.height > temporal::MaximumPixels)
+    {
+      std::ostringstream message;
+      message << name << " has " << f.width << "x" << f.height << " pixels; the denoiser takes at "
+              << "most " << temporal::MaximumPixels << " per eye (its lookups index the stored "
+              << "surfaces with 32-bit integers). Render at a lower resolution.";
       error = message.str();
       return false;
     }
