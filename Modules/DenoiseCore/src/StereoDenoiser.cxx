@@ -619,8 +619,8 @@ constexpr std::int64_t MaximumPixels = std::numeric_limits<int>::max() / Surface
 // tap is consistent or their weights sum to 0.05 or less. The taps are four passes over the
 // row, one tap of every pixel each, and an out-of-image or off-screen tap weighs 0, so that the
 // loops have no branches and vectorise; each sum takes the taps in the order of a per-pixel
-// loop over them, skipping the rejected ones (a select of 0), so every value is bit for bit
-// that loop's.
+// loop over them, and a rejected tap adds an exact 0, so every value is bit for bit that of the
+// per-pixel loop that skipped it.
 HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin, int count,
   int width, int height, const DenoiserParameters& p, float* planes)
 {
@@ -1995,25 +1995,28 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       {
         reprojectHistoryRow(eye, y, begin, count, width, height, p, scratch.data());
       }
-      for (int k = 0; relight && k < count; ++k)
+      if (relight)
       {
-        const std::size_t i = row + k;
-        const ReprojectedHistory& reprojected = eye.relitHistory[i];
-        if (eye.surface[i].kind == SurfaceNone || !reprojected.valid)
+        for (int k = 0; k < count; ++k)
         {
-          continue;
+          const std::size_t i = row + k;
+          const ReprojectedHistory& reprojected = eye.relitHistory[i];
+          if (eye.surface[i].kind == SurfaceNone || !reprojected.valid)
+          {
+            continue;
+          }
+          plane(HistoryValid)[k] = 1.0f;
+          for (int c = 0; c < 4; ++c)
+          {
+            plane(HistoryValue + c)[k] = reprojected.value[c];
+            plane(RelightingRatio + c)[k] = eye.relightingRatio[i][c];
+          }
+          previousInfo.set(k, reprojected.info);
+          plane(Zeta)[k] = reprojected.zeta;
+          plane(ReprojectedDepth)[k] = reprojected.depth;
+          plane(DepthDifferenceSquare)[k] = reprojected.depthDifferenceSquare;
+          plane(NormalDifferenceSquare)[k] = reprojected.normalDifferenceSquare;
         }
-        plane(HistoryValid)[k] = 1.0f;
-        for (int c = 0; c < 4; ++c)
-        {
-          plane(HistoryValue + c)[k] = reprojected.value[c];
-          plane(RelightingRatio + c)[k] = eye.relightingRatio[i][c];
-        }
-        previousInfo.set(k, reprojected.info);
-        plane(Zeta)[k] = reprojected.zeta;
-        plane(ReprojectedDepth)[k] = reprojected.depth;
-        plane(DepthDifferenceSquare)[k] = reprojected.depthDifferenceSquare;
-        plane(NormalDifferenceSquare)[k] = reprojected.normalDifferenceSquare;
       }
 
       const float* __restrict seen = plane(Seen);
