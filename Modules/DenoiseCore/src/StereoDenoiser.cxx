@@ -976,7 +976,6 @@ enum Plane
   PreviousOtherPixel = PreviousOwnPosition + 3,
   PreviousOtherDepth = PreviousOtherPixel + 2,
   PreviousOtherOnScreen,
-  LookupUse, // which pixels a lookup tests: they see a surface with a point on the screen
   // The eyes' accumulated coverages at k_L^{t-1} and k_R^{t-1} and their sample counts
   // (crossViewCoverage); equal coverages where they are not compared, which give exactly 1.
   OwnCoverage,
@@ -989,17 +988,19 @@ enum Plane
   CrossViewPlaneCount
 };
 
-// The corresponding pixels of a row in another view or frame: for each pixel k that `use`s
-// one, the surface stored at the nearest pixel to (pixelX, pixelY), which must be on the
-// screen or pixel 0, tested against the surface pixel k expects there (its point at view depth
-// `depth`, with the normal, gradient and depth spread given) by consistentSurfaceOfChannels.
-// Writes the pixel's index to `nearest`, 1 or 0 to `taken`, and the stored surface's fields
-// to `stored` for every pixel, taken or not. Without branches, reading the stored surfaces as
-// floats at computed indices (SurfaceFloats), so that the loop vectorises.
+// The corresponding pixels of a row in another view or frame: for each pixel k that is `seen`
+// (has a surface to look up) with a point on the screen (`onScreen`), the surface stored at the
+// nearest pixel to (pixelX, pixelY), which must be on the screen or pixel 0, tested against the
+// surface pixel k expects there (its point at view depth `depth`, with the normal, gradient and
+// depth spread given) by consistentSurfaceOfChannels. Writes the pixel's index to `nearest`, 1 or 0
+// to `taken`, and the stored surface's fields to `stored` for every pixel, taken or not. Without
+// branches, reading the stored surfaces as floats at computed indices (SurfaceFloats), so that the
+// loop vectorises.
 HV_ALWAYS_INLINE inline void lookUpNearestRow(const std::vector<Surface>& storedSurface,
-  const float* __restrict pixelX, const float* __restrict pixelY, const float* __restrict use,
-  const float* __restrict depth, const ExpectedSurfaceRow& expected, int count, int width,
-  int* __restrict nearest, float* __restrict taken, const StoredSurfacePlanes& stored)
+  const float* __restrict pixelX, const float* __restrict pixelY, const float* __restrict onScreen,
+  const float* __restrict seen, const float* __restrict depth, const ExpectedSurfaceRow& expected,
+  int count, int width, int* __restrict nearest, float* __restrict taken,
+  const StoredSurfacePlanes& stored)
 {
   const float* __restrict storedSurfaces = reinterpret_cast<const float*>(storedSurface.data());
 #pragma GCC ivdep
@@ -1008,8 +1009,10 @@ HV_ALWAYS_INLINE inline void lookUpNearestRow(const std::vector<Surface>& stored
     const int q = nearestPixel(glm::vec2(pixelX[k], pixelY[k]), width);
     const int base = SurfaceFloats * q;
     nearest[k] = q;
-    taken[k] =
-      (use[k] > 0.0f) & expected.consistentWith(storedSurfaces, base, depth[k], k) ? 1.0f : 0.0f;
+    taken[k] = (onScreen[k] > 0.0f) & (seen[k] > 0.0f) &
+        expected.consistentWith(storedSurfaces, base, depth[k], k)
+      ? 1.0f
+      : 0.0f;
     stored.albedoRed[k] = storedSurfaces[base + StoredAlbedo];
     stored.albedoGreen[k] = storedSurfaces[base + StoredAlbedo + 1];
     stored.albedoBlue[k] = storedSurfaces[base + StoredAlbedo + 2];
@@ -1498,8 +1501,9 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
 
   // Non-finite radiance is refused before anything changes. Counted value by value without
   // a branch, so that the loop vectorises: |v| <= FLT_MAX is false for NaN and the infinities
-  // (with std::isfinite per pixel, the denoiser's time outside its five stages was 6.2-6.3 ms
-  // per 1440x936 stereo pair; with this loop 2.8-3.9).
+  // (with std::isfinite per pixel, the full denoiser's minimum less its five stages' minimums
+  // was 6.2-6.3 ms per 1440x936 stereo pair in holovolume-denoise-benchmark; with this loop
+  // 2.8-3.9).
   std::atomic<std::int64_t> nonFinite(0);
   impl.forRows(eyeCount, height,
     [&](int e, int y) HV_WIDEST_VECTORS
@@ -1882,13 +1886,9 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       if (p.crossViewSamples && usePreviousFrame && eye.hasPrevious)
       {
         // k_L^{t-1}, then k_R^{t-1} through the point stored there.
-        float* __restrict use = plane(LookupUse);
-        for (int k = 0; k < count; ++k)
-        {
-          use[k] = seen[k] * previousOnScreen[k];
-        }
-        lookUpNearestRow(eye.previousSurface, previousPixelX, previousPixelY, use, previousDepth,
-          ownSurface, count, width, previousOwnIndex, previousOwnTaken, previousOwn);
+        lookUpNearestRow(eye.previousSurface, previousPixelX, previousPixelY, previousOnScreen,
+          seen, previousDepth, ownSurface, count, width, previousOwnIndex, previousOwnTaken,
+          previousOwn);
         if (stereo && other.hasPrevious)
         {
           const float* __restrict storedSurfaces =
@@ -1907,7 +1907,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           float* __restrict otherPreviousPixelX = plane(PreviousOtherPixel);
           float* __restrict otherPreviousPixelY = plane(PreviousOtherPixel + 1);
           float* __restrict otherPreviousDepth = plane(PreviousOtherDepth);
-          float* __restrict otherPreviousUse = plane(PreviousOtherOnScreen);
+          float* __restrict otherPreviousOnScreen = plane(PreviousOtherOnScreen);
           const glm::mat4 otherPreviousViewProjection = other.previousViewProjection;
           const glm::mat4 otherPreviousView = other.previousView;
 #pragma GCC ivdep
@@ -1920,15 +1920,16 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
             otherPreviousPixelX[k] = onScreen ? pixel.x : 0.0f;
             otherPreviousPixelY[k] = onScreen ? pixel.y : 0.0f;
             otherPreviousDepth[k] = depth;
-            otherPreviousUse[k] = onScreen ? previousOwnTaken[k] : 0.0f;
+            otherPreviousOnScreen[k] = onScreen ? 1.0f : 0.0f;
           }
-          // Tested against the surface stored at k_L^{t-1}, whose point it is.
+          // Looked up where k_L^{t-1} was taken, and tested against the surface stored there,
+          // whose point it is.
           const ExpectedSurfaceRow previousOwnSurface = { previousOwn.normalX, previousOwn.normalY,
             previousOwn.normalZ, previousOwn.gradientMagnitude, previousOwn.depthSpread,
             p.depthTolerance, p.normalCosine, p.normalTestGradient };
           lookUpNearestRow(other.previousSurface, otherPreviousPixelX, otherPreviousPixelY,
-            otherPreviousUse, otherPreviousDepth, previousOwnSurface, count, width,
-            previousOtherIndex, previousOtherTaken, previousOther);
+            otherPreviousOnScreen, previousOwnTaken, otherPreviousDepth, previousOwnSurface, count,
+            width, previousOtherIndex, previousOtherTaken, previousOther);
           if (p.crossViewCoverageWidth > 0.0f)
           {
             const float* __restrict ownHistory = reinterpret_cast<const float*>(eye.history.data());
@@ -1961,13 +1962,8 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       }
       if (p.crossViewSamples && stereo)
       {
-        float* __restrict use = plane(LookupUse);
-        for (int k = 0; k < count; ++k)
-        {
-          use[k] = seen[k] * otherOnScreen[k];
-        }
-        lookUpNearestRow(other.surface, otherPixelX, otherPixelY, use, otherDepth, ownSurface,
-          count, width, otherNowIndex, otherNowTaken, otherNow);
+        lookUpNearestRow(other.surface, otherPixelX, otherPixelY, otherOnScreen, seen, otherDepth,
+          ownSurface, count, width, otherNowIndex, otherNowTaken, otherNow);
       }
 
       float* __restrict weightOtherNow = plane(WeightOtherNow);
