@@ -140,44 +140,86 @@ struct ColourPlanes
   }
 };
 
-// The channels of the surfaces that the wavelet filter's edge-stopping functions read, as
-// planes, and the sharpness of its coverage term (coverageSharpness; set by the temporal
-// blending, which knows how many frames a pixel averages). `valid` is 1 where a surface is seen and
-// 0 elsewhere, including everywhere outside the spans, so a tap may land anywhere and simply weigh
-// nothing.
-struct GuidePlanes
+// `value` where `keep` has all bits set, +0 where it has none.
+HV_ALWAYS_INLINE inline float keptIf(float value, std::uint32_t keep)
+{
+  std::uint32_t bits;
+  std::memcpy(&bits, &value, sizeof(bits));
+  bits &= keep;
+  std::memcpy(&value, &bits, sizeof(value));
+  return value;
+}
+
+// A frame's surfaces (the fields of Surface), one plane per field: the wavelet filter's
+// edge-stopping functions read them, and the next frame's lookups read them as the previous
+// frame's. `valid` is 1 where a surface is seen (Surface::kind is not SurfaceNone) and 0
+// elsewhere, including everywhere outside the spans, so a tap or lookup may land anywhere and
+// simply weigh nothing. `point` is Surface::firstScatterPosition, the point on the pixel-centre
+// ray that is reprojected. coverageSharpness is the sharpness of the wavelet filter's coverage
+// term, set by the temporal blending, which knows how many frames a pixel averages.
+// As planes rather than an array of Surface: the surfaces stage then fills them in loops that
+// vectorise, and each is written once (with the structs, the stage wrote every surface twice,
+// struct and planes, and took 12.2-12.6 ms per 1440x936 stereo pair of which 6.4 went to the
+// loop that copied the structs into the planes).
+struct SurfacePlanes
 {
   std::vector<float> depth, depthSpread, gradientMagnitude, normal[3], albedo[3], valid;
+  std::vector<float> depthJitter, normalJitter;
   std::vector<float> coverageSharpness;
-  // The reprojected point (Surface::firstScatterPosition), which the cross-view and temporal
-  // stages read a row at a time.
   std::vector<float> point[3];
 
   void assign(std::size_t n)
   {
-    for (std::vector<float>* plane :
-      { &this->depth, &this->depthSpread, &this->gradientMagnitude, &this->normal[0],
-        &this->normal[1], &this->normal[2], &this->albedo[0], &this->albedo[1], &this->albedo[2],
-        &this->valid, &this->coverageSharpness, &this->point[0], &this->point[1], &this->point[2] })
+    for (std::vector<float>* plane : { &this->depth, &this->depthSpread, &this->gradientMagnitude,
+           &this->normal[0], &this->normal[1], &this->normal[2], &this->albedo[0], &this->albedo[1],
+           &this->albedo[2], &this->valid, &this->depthJitter, &this->normalJitter,
+           &this->coverageSharpness, &this->point[0], &this->point[1], &this->point[2] })
     {
       plane->assign(n, 0.0f);
     }
   }
-  void set(std::size_t i, const Surface& s)
+};
+
+// Read-only pointers to a frame's surface planes, for the loops that look surfaces up at
+// computed indices (GCC vectorises base[index] loads through a named pointer, not through an
+// array of planes or a vector's operator[]). Index them with the pixel as an unsigned int:
+// with a signed one GCC widens the loop's other int indices of the same pixel (4 j + c into
+// the history) to 64 bits, and then emulates none of those gathers.
+struct StoredSurfaces
+{
+  const float* depth;
+  const float* depthSpread;
+  const float* gradientMagnitude;
+  const float* normalX;
+  const float* normalY;
+  const float* normalZ;
+  const float* albedoRed;
+  const float* albedoGreen;
+  const float* albedoBlue;
+  const float* valid;
+  const float* depthJitter;
+  const float* normalJitter;
+  const float* pointX;
+  const float* pointY;
+  const float* pointZ;
+
+  explicit StoredSurfaces(const SurfacePlanes& planes)
+    : depth(planes.depth.data())
+    , depthSpread(planes.depthSpread.data())
+    , gradientMagnitude(planes.gradientMagnitude.data())
+    , normalX(planes.normal[0].data())
+    , normalY(planes.normal[1].data())
+    , normalZ(planes.normal[2].data())
+    , albedoRed(planes.albedo[0].data())
+    , albedoGreen(planes.albedo[1].data())
+    , albedoBlue(planes.albedo[2].data())
+    , valid(planes.valid.data())
+    , depthJitter(planes.depthJitter.data())
+    , normalJitter(planes.normalJitter.data())
+    , pointX(planes.point[0].data())
+    , pointY(planes.point[1].data())
+    , pointZ(planes.point[2].data())
   {
-    for (int c = 0; c < 3; ++c)
-    {
-      this->point[c][i] = s.firstScatterPosition[c];
-    }
-    this->depth[i] = s.depth;
-    this->depthSpread[i] = s.depthSpread;
-    this->gradientMagnitude[i] = s.gradientMagnitude;
-    for (int c = 0; c < 3; ++c)
-    {
-      this->normal[c][i] = s.normal[c];
-      this->albedo[c][i] = s.albedo[c];
-    }
-    this->valid[i] = s.kind == SurfaceNone ? 0.0f : 1.0f;
   }
 };
 
@@ -222,9 +264,10 @@ struct EyeState
   int nextRelightingAge = 0;
   int olderRelightingAge = 0;
 
-  // Invariant: outside its row spans a surface buffer holds SurfaceNone, so that neighbour
-  // and reprojection lookups may land anywhere; inside, every buffer below is this frame's.
-  std::vector<Surface> surface, previousSurface;
+  // Invariant: outside its row spans a surface buffer is not valid (no surface seen), so that
+  // neighbour and reprojection lookups may land anywhere; inside, every buffer below is this
+  // frame's.
+  SurfacePlanes surface, previousSurface;
   std::vector<RowSpan> span, previousSpan;
   std::vector<RowSpan> ownSpan;            // pixels with their own first scatter point, per row
   std::vector<RowStatistics> rowStatistics;
@@ -239,8 +282,6 @@ struct EyeState
   std::vector<glm::vec4> history, nextHistory;
   std::vector<HistoryInfo> historyInfo, nextHistoryInfo;
   ColourPlanes filtered[2];           // a-trous ping-pong
-  GuidePlanes guide;                  // this frame's surfaces for the wavelet filter
-  std::vector<RowSpan> guideSpan;     // where guide.valid was last set
   std::vector<float> variance[2];     // variance of the filtered luminance
   std::vector<float> filteredLuminance; // of the wavelet filter's output, for D2's noise test
   std::vector<glm::vec4> firstStep;   // D1 output, re-modulated
@@ -295,14 +336,12 @@ struct EyeState
     this->hasPrevious = false;
     this->canReplace = false;
     this->relightingAge = 0;
-    this->surface.assign(n, Surface());
-    this->previousSurface.assign(n, Surface());
+    this->surface.assign(n);
+    this->previousSurface.assign(n);
     this->span.assign(static_cast<std::size_t>(h), RowSpan());
     this->previousSpan.assign(static_cast<std::size_t>(h), RowSpan());
     this->ownSpan.assign(static_cast<std::size_t>(h), RowSpan());
     this->rowStatistics.assign(static_cast<std::size_t>(h), RowStatistics());
-    this->guideSpan.assign(static_cast<std::size_t>(h), RowSpan());
-    this->guide.assign(n);
     this->raw.assign(n, glm::vec4(0.0f));
     this->previousRaw.assign(n, glm::vec4(0.0f));
     this->fused.assign(n);
@@ -369,28 +408,15 @@ HV_ALWAYS_INLINE inline BilinearTaps bilinearTaps(const glm::vec2& pixel, int wi
   return taps;
 }
 
-// A Surface as floats: the lookups in another view or frame (the history, the cross-view
-// samples, D2) read the stored surfaces at computed indices, and GCC vectorises such loads from
-// a float array, not from struct fields.
-constexpr int SurfaceFloats = sizeof(Surface) / sizeof(float);
-static_assert(sizeof(Surface) % sizeof(float) == 0, "the lookups read Surface as floats");
-constexpr int StoredPosition = offsetof(Surface, firstScatterPosition) / sizeof(float);
-constexpr int StoredDepth = offsetof(Surface, depth) / sizeof(float);
-constexpr int StoredNormal = offsetof(Surface, normal) / sizeof(float);
-constexpr int StoredGradient = offsetof(Surface, gradientMagnitude) / sizeof(float);
-constexpr int StoredAlbedo = offsetof(Surface, albedo) / sizeof(float);
-constexpr int StoredDepthSpread = offsetof(Surface, depthSpread) / sizeof(float);
-constexpr int StoredDepthJitter = offsetof(Surface, depthJitter) / sizeof(float);
-constexpr int StoredNormalJitter = offsetof(Surface, normalJitter) / sizeof(float);
-constexpr int StoredKind = offsetof(Surface, kind) / sizeof(float);
-// The most pixels per eye whose stored surfaces a 32-bit index reaches as floats.
-constexpr std::int64_t MaximumPixels = std::numeric_limits<int>::max() / SurfaceFloats;
+// The most pixels per eye whose stored history information a 32-bit index reaches as floats
+// (HistoryInfo's 7 floats a pixel, the most of any buffer the lookups read so).
+constexpr std::int64_t MaximumPixels = std::numeric_limits<int>::max() / 7;
 
 // What the pixels of a row expect to find at their corresponding pixels in another view or
 // frame (normal, gradient magnitude and depth spread, one plane each) and the disocclusion
-// test's parameters: consistentSurface of a stored surface read as floats at `stored` (its
-// first float), for pixel k whose point lies at view depth `depth` there. Without branches, so
-// that the lookups' loops vectorise.
+// test's parameters: consistentSurface of the surface stored at pixel `stored`, for pixel k
+// whose point lies at view depth `depth` there. Without branches, so that the lookups' loops
+// vectorise.
 struct ExpectedSurfaceRow
 {
   const float* normalX;
@@ -403,29 +429,24 @@ struct ExpectedSurfaceRow
   float normalTestGradient;
 
   HV_ALWAYS_INLINE bool consistentWith(
-    const float* __restrict storedSurfaces, int stored, float depth, int k) const
+    const StoredSurfaces& surfaces, std::uint32_t stored, float depth, int k) const
   {
-    std::uint32_t storedKind;
-    std::memcpy(&storedKind, storedSurfaces + stored + StoredKind, sizeof(storedKind));
-    return consistentSurfaceOfChannels(storedKind != SurfaceNone,
-      storedSurfaces[stored + StoredDepth], storedSurfaces[stored + StoredDepthSpread],
-      storedSurfaces[stored + StoredGradient],
-      glm::vec3(storedSurfaces[stored + StoredNormal], storedSurfaces[stored + StoredNormal + 1],
-        storedSurfaces[stored + StoredNormal + 2]),
-      storedSurfaces[stored + StoredDepthJitter], storedSurfaces[stored + StoredNormalJitter],
-      depth, glm::vec3(this->normalX[k], this->normalY[k], this->normalZ[k]),
-      this->gradientMagnitude[k], this->depthSpread[k], this->depthTolerance, this->normalCosine,
-      this->normalTestGradient);
+    return consistentSurfaceOfChannels(surfaces.valid[stored] > 0.0f, surfaces.depth[stored],
+      surfaces.depthSpread[stored], surfaces.gradientMagnitude[stored],
+      glm::vec3(surfaces.normalX[stored], surfaces.normalY[stored], surfaces.normalZ[stored]),
+      surfaces.depthJitter[stored], surfaces.normalJitter[stored], depth,
+      glm::vec3(this->normalX[k], this->normalY[k], this->normalZ[k]), this->gradientMagnitude[k],
+      this->depthSpread[k], this->depthTolerance, this->normalCosine, this->normalTestGradient);
   }
 };
 
-// The pixels' own surfaces, from the guide's planes from pixel `row` on.
-HV_ALWAYS_INLINE inline ExpectedSurfaceRow expectedSurfaceOfGuide(
-  const GuidePlanes& guide, std::size_t row, const DenoiserParameters& p)
+// The pixels' own surfaces, from this frame's planes from pixel `row` on.
+HV_ALWAYS_INLINE inline ExpectedSurfaceRow expectedSurfaceOf(
+  const SurfacePlanes& surface, std::size_t row, const DenoiserParameters& p)
 {
-  return { guide.normal[0].data() + row, guide.normal[1].data() + row, guide.normal[2].data() + row,
-    guide.gradientMagnitude.data() + row, guide.depthSpread.data() + row, p.depthTolerance,
-    p.normalCosine, p.normalTestGradient };
+  return { surface.normal[0].data() + row, surface.normal[1].data() + row,
+    surface.normal[2].data() + row, surface.gradientMagnitude.data() + row,
+    surface.depthSpread.data() + row, p.depthTolerance, p.normalCosine, p.normalTestGradient };
 }
 
 // bilinearTaps for each pixel of a row, as planes of `count` floats and ints: tap t of pixel k
@@ -495,8 +516,8 @@ Surface asSeenFrom(const Surface& surface, float viewDepth)
 // them see the same surface; clamped to the range of the four bilinear taps so that the
 // cubic's lobes cannot overshoot. Elsewhere (an edge, a disocclusion, the image border) the
 // bilinear value stays.
-HV_WIDEST_VECTORS void fetchBicubic(const EyeState& eye, const Surface& s, const glm::vec2& pixel,
-  float depth, int width, int height, const DenoiserParameters& p, const BilinearTaps& bilinear,
+HV_WIDEST_VECTORS void fetchBicubic(const EyeState& eye, const ExpectedSurfaceRow& expected, int k,
+  const glm::vec2& pixel, float depth, int width, int height, const BilinearTaps& bilinear,
   glm::vec4& value)
 {
   const float fx = pixel.x - 0.5f;
@@ -510,19 +531,19 @@ HV_WIDEST_VECTORS void fetchBicubic(const EyeState& eye, const Surface& s, const
   float wx[4], wy[4];
   catmullRomWeights(fx - static_cast<float>(x0), wx);
   catmullRomWeights(fy - static_cast<float>(y0), wy);
+  const StoredSurfaces stored(eye.previousSurface);
   glm::vec4 sum(0.0f);
   for (int j = 0; j < 4; ++j)
   {
-    const std::size_t row = static_cast<std::size_t>(y0 - 1 + j) * width;
-    for (int k = 0; k < 4; ++k)
+    const int row = (y0 - 1 + j) * width;
+    for (int i = 0; i < 4; ++i)
     {
-      const std::size_t index = row + static_cast<std::size_t>(x0 - 1 + k);
-      if (!consistentSurface(eye.previousSurface[index], depth, s.normal, s.gradientMagnitude,
-            s.depthSpread, p.depthTolerance, p.normalCosine, p.normalTestGradient))
+      const int index = row + x0 - 1 + i;
+      if (!expected.consistentWith(stored, index, depth, k))
       {
         return;
       }
-      sum += (wx[k] * wy[j]) * eye.history[index];
+      sum += (wx[i] * wy[j]) * eye.history[static_cast<std::size_t>(index)];
     }
   }
   glm::vec4 low = eye.history[bilinear.index[0]], high = low;
@@ -575,13 +596,14 @@ struct NeighbourhoodMoments
   float* count;
 };
 
-HV_WIDEST_VECTORS NeighbourhoodMoments neighbourhoodMomentsRow(const GuidePlanes& guide,
+HV_WIDEST_VECTORS NeighbourhoodMoments neighbourhoodMomentsRow(const SurfacePlanes& guide,
   const ColourPlanes& fused, const std::vector<float>& rawLuminance, int width, int height, int y,
   int begin, int end)
 {
   const int count = end - begin;
   thread_local std::vector<float> scratch;
-  scratch.assign(static_cast<std::size_t>(count) * 11, 0.0f);
+  scratch.resize(static_cast<std::size_t>(count) * 11);
+  std::fill(scratch.begin(), scratch.end(), 0.0f);
   NeighbourhoodMoments moments;
   for (int c = 0; c < 4; ++c)
   {
@@ -637,7 +659,7 @@ HV_WIDEST_VECTORS NeighbourhoodMoments neighbourhoodMomentsRow(const GuidePlanes
 
 // The temporal blending's planes for a row (the temporal stage): each pixel's reprojected
 // history and its statistics, gathered tap by tap, and the blended statistics and learnt
-// jitters, written back into the per-pixel structs after the vector loop.
+// jitters, copied into the eye's history and surface planes after the vector loop.
 namespace temporal
 {
 // HistoryInfo of each pixel of a row as one plane per field.
@@ -703,7 +725,7 @@ enum Plane
   TemporalPlaneCount
 };
 
-// HistoryInfo as an array of floats, read as the stored surfaces are (SurfaceFloats).
+// HistoryInfo as an array of floats, so that the history lookup reads it at computed indices.
 static_assert(sizeof(HistoryInfo) == HistoryInfoPlanes::FieldCount * sizeof(float),
   "the history lookup reads HistoryInfo as floats");
 
@@ -730,7 +752,7 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
   const float* __restrict pixelX = eye.reprojectedPixel[0].data() + row;
   const float* __restrict pixelY = eye.reprojectedPixel[1].data() + row;
   const float* __restrict onScreen = eye.reprojectedOnScreen.data() + row;
-  const float* __restrict seen = eye.guide.valid.data() + row;
+  const float* __restrict seen = eye.surface.valid.data() + row;
   const float* __restrict weight00 = tapWeights.data();
   const float* __restrict weight10 = tapWeights.data() + count;
   const float* __restrict weight01 = tapWeights.data() + 2 * count;
@@ -762,12 +784,11 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
   float* __restrict infoDepthMean = info.depthMean;
   float* __restrict depthDifferenceSquare = plane(DepthDifferenceSquare);
   float* __restrict normalDifferenceSquare = plane(NormalDifferenceSquare);
-  const float* __restrict storedSurfaces =
-    reinterpret_cast<const float*>(eye.previousSurface.data());
+  const StoredSurfaces storedSurfaces(eye.previousSurface);
   const float* __restrict storedHistory = reinterpret_cast<const float*>(eye.history.data());
   const float* __restrict storedInfo = reinterpret_cast<const float*>(eye.historyInfo.data());
   const float* __restrict reprojectedDepth = eye.reprojectedDepth.data() + row;
-  const ExpectedSurfaceRow expected = expectedSurfaceOfGuide(eye.guide, row, p);
+  const ExpectedSurfaceRow expected = expectedSurfaceOf(eye.surface, row, p);
   const float* __restrict normalX = expected.normalX;
   const float* __restrict normalY = expected.normalY;
   const float* __restrict normalZ = expected.normalZ;
@@ -781,14 +802,15 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
       const float w = tapWeight[k];
       // Indices into the float arrays, not pointers to the tap's struct: GCC takes only the
       // form base[index] for a gather.
-      const int stored = SurfaceFloats * j;
       const int history = 4 * j;
       const int tapInfo = HistoryInfoPlanes::FieldCount * j;
       const float depth = reprojectedDepth[k];
-      const float storedDepth = storedSurfaces[stored + StoredDepth];
+      // The planes read at j as an unsigned index (StoredSurfaces).
+      const std::uint32_t stored = static_cast<std::uint32_t>(j);
+      const float storedDepth = storedSurfaces.depth[stored];
       const glm::vec3 normal(normalX[k], normalY[k], normalZ[k]);
-      const glm::vec3 storedNormal(storedSurfaces[stored + StoredNormal],
-        storedSurfaces[stored + StoredNormal + 1], storedSurfaces[stored + StoredNormal + 2]);
+      const glm::vec3 storedNormal(storedSurfaces.normalX[stored], storedSurfaces.normalY[stored],
+        storedSurfaces.normalZ[stored]);
       const bool take = (w > 0.0f) & expected.consistentWith(storedSurfaces, stored, depth, k);
       // A rejected tap adds 0 times its values, an exact +-0 for the finite values stored
       // (the sums are never -0). With a select between w h and 0, GCC would load h only for
@@ -823,9 +845,9 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
   float* __restrict historyValid = plane(HistoryValid);
   float* __restrict zeta = plane(Zeta);
   float* __restrict historyDepth = plane(ReprojectedDepth);
-  const float* __restrict albedoRed = eye.guide.albedo[0].data() + row;
-  const float* __restrict albedoGreen = eye.guide.albedo[1].data() + row;
-  const float* __restrict albedoBlue = eye.guide.albedo[2].data() + row;
+  const float* __restrict albedoRed = eye.surface.albedo[0].data() + row;
+  const float* __restrict albedoGreen = eye.surface.albedo[1].data() + row;
+  const float* __restrict albedoBlue = eye.surface.albedo[2].data() + row;
   const EdgeStopping edgeStopping = p.temporal;
 #pragma GCC ivdep
   for (int k = 0; k < count; ++k)
@@ -838,15 +860,15 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
     current.gradientMagnitude = expected.gradientMagnitude[k];
     current.depth = reprojectedDepth[k];
     current.depthSpread = expected.depthSpread[k];
-    const int stored = SurfaceFloats * bestIndex[k];
+    const int stored = bestIndex[k];
     Surface best;
-    best.albedo = glm::vec3(storedSurfaces[stored + StoredAlbedo],
-      storedSurfaces[stored + StoredAlbedo + 1], storedSurfaces[stored + StoredAlbedo + 2]);
-    best.normal = glm::vec3(storedSurfaces[stored + StoredNormal],
-      storedSurfaces[stored + StoredNormal + 1], storedSurfaces[stored + StoredNormal + 2]);
-    best.gradientMagnitude = storedSurfaces[stored + StoredGradient];
-    best.depth = storedSurfaces[stored + StoredDepth];
-    best.depthSpread = storedSurfaces[stored + StoredDepthSpread];
+    best.albedo = glm::vec3(storedSurfaces.albedoRed[stored], storedSurfaces.albedoGreen[stored],
+      storedSurfaces.albedoBlue[stored]);
+    best.normal = glm::vec3(storedSurfaces.normalX[stored], storedSurfaces.normalY[stored],
+      storedSurfaces.normalZ[stored]);
+    best.gradientMagnitude = storedSurfaces.gradientMagnitude[stored];
+    best.depth = storedSurfaces.depth[stored];
+    best.depthSpread = storedSurfaces.depthSpread[stored];
     zeta[k] = bilateralWeight(current, best, edgeStopping);
   }
 #pragma GCC ivdep
@@ -888,8 +910,7 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
         continue;
       }
       glm::vec4 value(valueRed[k], valueGreen[k], valueBlue[k], valueCoverage[k]);
-      fetchBicubic(
-        eye, eye.surface[row + k], pixel, reprojectedDepth[k], width, height, p, taps, value);
+      fetchBicubic(eye, expected, k, pixel, reprojectedDepth[k], width, height, taps, value);
       valueRed[k] = value.x;
       valueGreen[k] = value.y;
       valueBlue[k] = value.z;
@@ -994,34 +1015,33 @@ enum Plane
 // surface pixel k expects there (its point at view depth `depth`, with the normal, gradient and
 // depth spread given) by consistentSurfaceOfChannels. Writes the pixel's index to `nearest`, 1 or 0
 // to `taken`, and the stored surface's fields to `stored` for every pixel, taken or not. Without
-// branches, reading the stored surfaces as floats at computed indices (SurfaceFloats), so that the
-// loop vectorises.
-HV_ALWAYS_INLINE inline void lookUpNearestRow(const std::vector<Surface>& storedSurface,
+// branches, reading the stored planes at computed indices, so that the loop vectorises.
+HV_ALWAYS_INLINE inline void lookUpNearestRow(const SurfacePlanes& storedPlanes,
   const float* __restrict pixelX, const float* __restrict pixelY, const float* __restrict onScreen,
   const float* __restrict seen, const float* __restrict depth, const ExpectedSurfaceRow& expected,
   int count, int width, int* __restrict nearest, float* __restrict taken,
   const StoredSurfacePlanes& stored)
 {
-  const float* __restrict storedSurfaces = reinterpret_cast<const float*>(storedSurface.data());
+  const StoredSurfaces storedSurfaces(storedPlanes);
 #pragma GCC ivdep
   for (int k = 0; k < count; ++k)
   {
     const int q = nearestPixel(glm::vec2(pixelX[k], pixelY[k]), width);
-    const int base = SurfaceFloats * q;
+    const std::uint32_t index = static_cast<std::uint32_t>(q); // StoredSurfaces
     nearest[k] = q;
     taken[k] = (onScreen[k] > 0.0f) & (seen[k] > 0.0f) &
-        expected.consistentWith(storedSurfaces, base, depth[k], k)
+        expected.consistentWith(storedSurfaces, index, depth[k], k)
       ? 1.0f
       : 0.0f;
-    stored.albedoRed[k] = storedSurfaces[base + StoredAlbedo];
-    stored.albedoGreen[k] = storedSurfaces[base + StoredAlbedo + 1];
-    stored.albedoBlue[k] = storedSurfaces[base + StoredAlbedo + 2];
-    stored.normalX[k] = storedSurfaces[base + StoredNormal];
-    stored.normalY[k] = storedSurfaces[base + StoredNormal + 1];
-    stored.normalZ[k] = storedSurfaces[base + StoredNormal + 2];
-    stored.gradientMagnitude[k] = storedSurfaces[base + StoredGradient];
-    stored.depth[k] = storedSurfaces[base + StoredDepth];
-    stored.depthSpread[k] = storedSurfaces[base + StoredDepthSpread];
+    stored.albedoRed[k] = storedSurfaces.albedoRed[index];
+    stored.albedoGreen[k] = storedSurfaces.albedoGreen[index];
+    stored.albedoBlue[k] = storedSurfaces.albedoBlue[index];
+    stored.normalX[k] = storedSurfaces.normalX[index];
+    stored.normalY[k] = storedSurfaces.normalY[index];
+    stored.normalZ[k] = storedSurfaces.normalZ[index];
+    stored.gradientMagnitude[k] = storedSurfaces.gradientMagnitude[index];
+    stored.depth[k] = storedSurfaces.depth[index];
+    stored.depthSpread[k] = storedSurfaces.depthSpread[index];
     stored.seenDepth[k] = depth[k];
   }
 }
@@ -1056,7 +1076,7 @@ private:
 #endif
 };
 
-HV_WIDEST_VECTORS void filterWaveletRow(const GuidePlanes& guide, const ColourPlanes& in,
+HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide, const ColourPlanes& in,
   const std::vector<float>& inVariance, ColourPlanes& out, std::vector<float>& outVariance,
   int width, int height, int y, int begin, int end, int step, float luminanceSigma,
   const EdgeStopping edges)
@@ -1066,7 +1086,8 @@ HV_WIDEST_VECTORS void filterWaveletRow(const GuidePlanes& guide, const ColourPl
   static const float kernel[3] = { 0.25f, 0.5f, 0.25f };
   const int count = end - begin;
   thread_local std::vector<float> scratch;
-  scratch.assign(static_cast<std::size_t>(count) * 10, 0.0f);
+  scratch.resize(static_cast<std::size_t>(count) * 10);
+  std::fill(scratch.begin(), scratch.end(), 0.0f);
   float* __restrict sum[4] = { scratch.data(), scratch.data() + count, scratch.data() + 2 * count,
     scratch.data() + 3 * count };
   float* __restrict varianceSum = scratch.data() + 4 * count;
@@ -1280,7 +1301,7 @@ struct StereoDenoiser::Internals
         for (int x = span.begin; x < span.end; ++x)
         {
           const std::size_t i = static_cast<std::size_t>(y) * width + x;
-          if (eye.surface[i].kind == SurfaceNone)
+          if (!(eye.surface.valid[i] > 0.0f))
           {
             continue;
           }
@@ -1435,7 +1456,7 @@ float StereoDenoiser::historyLength(int eye, int x, int y) const
     return 0.0f;
   }
   const std::size_t i = static_cast<std::size_t>(y) * state.width + x;
-  return state.previousSurface[i].kind == SurfaceNone ? 0.0f : state.historyInfo[i].frames;
+  return state.previousSurface.valid[i] > 0.0f ? state.historyInfo[i].frames : 0.0f;
 }
 
 bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminationDifference,
@@ -1473,7 +1494,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       std::ostringstream message;
       message << name << " has " << f.width << "x" << f.height << " pixels; the denoiser takes at "
               << "most " << MaximumPixels << " per eye (its lookups index the stored "
-              << "surfaces with 32-bit integers). Render at a lower resolution.";
+              << "history with 32-bit integers). Render at a lower resolution.";
       error = message.str();
       return false;
     }
@@ -1615,29 +1636,68 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       {
         if (x < grown.begin || x >= grown.end)
         {
-          eye.surface[rowStart + x].kind = SurfaceNone;
+          eye.surface.valid[rowStart + x] = 0.0f;
         }
       }
       span = grown;
-      for (int x = span.begin; x < span.end; ++x)
+      const int count = span.end - span.begin;
+      if (count <= 0)
       {
-        const std::size_t i = static_cast<std::size_t>(y) * width + x;
+        return;
+      }
+      // The mapper's buffers into the planes: a pixel with its own first scatter point gets its
+      // surface, the others +0 in every field (a neighbour's may be borrowed below). The values
+      // are kept or cleared by a bit mask: a product with 1 or 0 would keep a NaN the buffers
+      // may hold where no sample scattered, and with a select GCC loads only where it is true,
+      // a masked load of every third float that it does not vectorise.
+      const std::size_t row = rowStart + span.begin;
+      const unsigned char* __restrict own = f.firstScatterValid + row;
+      const float* __restrict framePosition = f.firstScatterPosition + 3 * row;
+      const float* __restrict frameDepth = f.depth + row;
+      const float* __restrict frameNormal = f.normal + 3 * row;
+      const float* __restrict frameGradient = f.gradientMagnitude + row;
+      const float* __restrict frameAlbedo = f.albedo + 3 * row;
+      SurfacePlanes& surface = eye.surface;
+      float* __restrict pointX = surface.point[0].data() + row;
+      float* __restrict pointY = surface.point[1].data() + row;
+      float* __restrict pointZ = surface.point[2].data() + row;
+      float* __restrict depth = surface.depth.data() + row;
+      float* __restrict normalX = surface.normal[0].data() + row;
+      float* __restrict normalY = surface.normal[1].data() + row;
+      float* __restrict normalZ = surface.normal[2].data() + row;
+      float* __restrict gradientMagnitude = surface.gradientMagnitude.data() + row;
+      float* __restrict albedoRed = surface.albedo[0].data() + row;
+      float* __restrict albedoGreen = surface.albedo[1].data() + row;
+      float* __restrict albedoBlue = surface.albedo[2].data() + row;
+      float* __restrict valid = surface.valid.data() + row;
+#pragma GCC ivdep
+      for (int k = 0; k < count; ++k)
+      {
+        const std::uint32_t keep = 0u - static_cast<std::uint32_t>(own[k] != 0);
+        pointX[k] = keptIf(framePosition[3 * k], keep);
+        pointY[k] = keptIf(framePosition[3 * k + 1], keep);
+        pointZ[k] = keptIf(framePosition[3 * k + 2], keep);
+        depth[k] = keptIf(frameDepth[k], keep);
+        normalX[k] = keptIf(frameNormal[3 * k], keep);
+        normalY[k] = keptIf(frameNormal[3 * k + 1], keep);
+        normalZ[k] = keptIf(frameNormal[3 * k + 2], keep);
+        gradientMagnitude[k] = keptIf(frameGradient[k], keep);
+        albedoRed[k] = keptIf(frameAlbedo[3 * k], keep);
+        albedoGreen[k] = keptIf(frameAlbedo[3 * k + 1], keep);
+        albedoBlue[k] = keptIf(frameAlbedo[3 * k + 2], keep);
+        valid[k] = own[k] != 0 ? 1.0f : 0.0f;
+      }
+      std::fill_n(surface.depthSpread.data() + row, count, 0.0f);
+      std::fill_n(surface.depthJitter.data() + row, count, 0.0f);
+      std::fill_n(surface.normalJitter.data() + row, count, 0.0f);
+      for (int k = 0; k < count; ++k)
+      {
+        const std::size_t i = row + k;
         const float* r = f.radiance + 4 * i;
-        Surface s;
         const glm::vec4 radiance(r[0], r[1], r[2], r[3]);
-        if (f.firstScatterValid[i])
-        {
-          s.kind = SurfaceOwn;
-          s.firstScatterPosition = glm::vec3(f.firstScatterPosition[3 * i],
-            f.firstScatterPosition[3 * i + 1], f.firstScatterPosition[3 * i + 2]);
-          s.depth = f.depth[i];
-          s.normal = glm::vec3(f.normal[3 * i], f.normal[3 * i + 1], f.normal[3 * i + 2]);
-          s.gradientMagnitude = f.gradientMagnitude[i];
-          s.albedo = glm::vec3(f.albedo[3 * i], f.albedo[3 * i + 1], f.albedo[3 * i + 2]);
-        }
-        eye.surface[i] = s;
-        eye.raw[i] = (s.kind == SurfaceOwn && p.demodulateAlbedo) ? demodulate(radiance, s.albedo)
-                                                                  : radiance;
+        eye.raw[i] = (own[k] && p.demodulateAlbedo)
+          ? demodulate(radiance, glm::vec3(albedoRed[k], albedoGreen[k], albedoBlue[k]))
+          : radiance;
         eye.rawLuminance[i] = luminance(glm::vec3(eye.raw[i]));
       }
     });
@@ -1646,14 +1706,15 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
   impl.forSpans(eyeCount, height,
     [&](int e, int y, int begin, int end) HV_WIDEST_VECTORS
     {
-      EyeState& eye = impl.eyes[e];
+      SurfacePlanes& surface = impl.eyes[e].surface;
+      const unsigned char* own = eyes[e].firstScatterValid;
       const float* radiance = eyes[e].radiance;
       static const int offsets[8][2] = { { 1, 0 }, { -1, 0 }, { 0, 1 }, { 0, -1 }, { 1, 1 },
         { -1, 1 }, { 1, -1 }, { -1, -1 } };
       for (int x = begin; x < end; ++x)
       {
         const std::size_t i = static_cast<std::size_t>(y) * width + x;
-        if (eye.surface[i].kind != SurfaceNone || radiance[4 * i + 3] >= 1.0f)
+        if (own[i] || radiance[4 * i + 3] >= 1.0f)
         {
           continue; // opaque background (a visible environment) is not volume
         }
@@ -1664,12 +1725,18 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           {
             continue;
           }
-          const Surface& neighbour = eye.surface[static_cast<std::size_t>(ny) * width + nx];
-          if (neighbour.kind == SurfaceOwn)
+          const std::size_t n = static_cast<std::size_t>(ny) * width + nx;
+          if (own[n])
           {
-            Surface borrowed = neighbour;
-            borrowed.kind = SurfaceBorrowed;
-            eye.surface[i] = borrowed;
+            // Only pixels with their own point lend theirs, so the rows may borrow in any
+            // order. The depth spread and jitters are still 0 on both.
+            for (std::vector<float>* plane : { &surface.point[0], &surface.point[1],
+                   &surface.point[2], &surface.depth, &surface.normal[0], &surface.normal[1],
+                   &surface.normal[2], &surface.gradientMagnitude, &surface.albedo[0],
+                   &surface.albedo[1], &surface.albedo[2], &surface.valid })
+            {
+              (*plane)[i] = (*plane)[n];
+            }
             break;
           }
         }
@@ -1690,16 +1757,9 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
     {
       EyeState& eye = impl.eyes[e];
       const RowSpan& span = eye.span[static_cast<std::size_t>(y)];
-      RowSpan& guideSpan = eye.guideSpan[static_cast<std::size_t>(y)];
-      for (int x = guideSpan.begin; x < guideSpan.end; ++x)
-      {
-        eye.guide.valid[static_cast<std::size_t>(y) * width + x] = 0.0f;
-      }
-      guideSpan = span;
       // In loops over the row that vectorise, as the temporal moments: the 3x3 sums tap by tap
       // (a pixel has its own scatter point where the mapper's buffer says so, and its depth is
       // the buffer's; a tap without adds an exact 0), and the points on the pixel-centre rays.
-      // Each value is computed with the operations of a per-pixel loop in their order.
       const int count = span.end - span.begin;
       if (count <= 0)
       {
@@ -1707,16 +1767,11 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       }
       const std::size_t row = static_cast<std::size_t>(y) * width + span.begin;
       thread_local std::vector<float> planes;
-      planes.resize(static_cast<std::size_t>(count) * 8);
-      std::fill_n(planes.data(), 3 * count, 0.0f); // the sums
+      planes.resize(static_cast<std::size_t>(count) * 3);
+      std::fill_n(planes.data(), 3 * count, 0.0f);
       float* __restrict depthSum = planes.data();
       float* __restrict depthSquareSum = planes.data() + count;
       float* __restrict ownCount = planes.data() + 2 * count;
-      float* __restrict depthOf = planes.data() + 3 * count;
-      float* __restrict pointX = planes.data() + 4 * count;
-      float* __restrict pointY = planes.data() + 5 * count;
-      float* __restrict pointZ = planes.data() + 6 * count;
-      float* __restrict depthSpread = planes.data() + 7 * count;
       const unsigned char* __restrict ownScatter = eyes[e].firstScatterValid;
       const float* __restrict frameDepth = eyes[e].depth;
       for (int dy = -1; dy <= 1; ++dy)
@@ -1742,41 +1797,29 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           }
         }
       }
-      for (int k = 0; k < count; ++k)
-      {
-        const Surface& s = eye.surface[row + k];
-        depthOf[k] = s.depth;
-        pointX[k] = s.firstScatterPosition.x;
-        pointY[k] = s.firstScatterPosition.y;
-        pointZ[k] = s.firstScatterPosition.z;
-      }
+      SurfacePlanes& surface = eye.surface;
+      const float* __restrict valid = surface.valid.data() + row;
+      const float* __restrict depthOf = surface.depth.data() + row;
+      float* __restrict pointX = surface.point[0].data() + row;
+      float* __restrict pointY = surface.point[1].data() + row;
+      float* __restrict pointZ = surface.point[2].data() + row;
+      float* __restrict depthSpread = surface.depthSpread.data() + row;
       const glm::mat4 inverse = inverseViewProjection[e];
       const glm::mat4 view = eye.view;
 #pragma GCC ivdep
       for (int k = 0; k < count; ++k)
       {
+        // Where no surface is seen the planes keep their 0s.
+        const bool seen = valid[k] > 0.0f;
         glm::vec3 point(pointX[k], pointY[k], pointZ[k]);
         pointOnPixelRay(inverse, view, span.begin + k, y, width, height, depthOf[k], point);
-        pointX[k] = point.x;
-        pointY[k] = point.y;
-        pointZ[k] = point.z;
+        pointX[k] = seen ? point.x : pointX[k];
+        pointY[k] = seen ? point.y : pointY[k];
+        pointZ[k] = seen ? point.z : pointZ[k];
         const float n = ownCount[k];
         const float mean = depthSum[k] / glm::max(n, 1.0f);
         const float spread = std::sqrt(glm::max(depthSquareSum[k] / n - mean * mean, 0.0f));
-        depthSpread[k] = n > 1.0f ? spread : 0.0f;
-      }
-      for (int k = 0; k < count; ++k)
-      {
-        const std::size_t i = row + k;
-        Surface& s = eye.surface[i];
-        if (s.kind == SurfaceNone)
-        {
-          eye.guide.valid[i] = 0.0f;
-          continue;
-        }
-        s.firstScatterPosition = glm::vec3(pointX[k], pointY[k], pointZ[k]);
-        s.depthSpread = depthSpread[k];
-        eye.guide.set(i, s);
+        depthSpread[k] = seen && n > 1.0f ? spread : 0.0f;
       }
     });
   this->Statistics.milliseconds[0] = millisecondsSince(stageStart);
@@ -1806,9 +1849,9 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       float* __restrict otherPixelY = scratch.data() + count;
       float* __restrict otherDepth = scratch.data() + 2 * count;
       float* __restrict otherOnScreen = scratch.data() + 3 * count;
-      const float* __restrict pointX = eye.guide.point[0].data() + row;
-      const float* __restrict pointY = eye.guide.point[1].data() + row;
-      const float* __restrict pointZ = eye.guide.point[2].data() + row;
+      const float* __restrict pointX = eye.surface.point[0].data() + row;
+      const float* __restrict pointY = eye.surface.point[1].data() + row;
+      const float* __restrict pointZ = eye.surface.point[2].data() + row;
       float* __restrict previousPixelX = eye.reprojectedPixel[0].data() + row;
       float* __restrict previousPixelY = eye.reprojectedPixel[1].data() + row;
       float* __restrict previousDepth = eye.reprojectedDepth.data() + row;
@@ -1873,16 +1916,16 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       std::fill_n(otherSamples, count, 1.0f);
       // The pixel's own surface from the guide planes, which hold it for every pixel that
       // sees one (seen).
-      const float* __restrict seen = eye.guide.valid.data() + row;
-      const float* __restrict albedoRed = eye.guide.albedo[0].data() + row;
-      const float* __restrict albedoGreen = eye.guide.albedo[1].data() + row;
-      const float* __restrict albedoBlue = eye.guide.albedo[2].data() + row;
-      const float* __restrict normalX = eye.guide.normal[0].data() + row;
-      const float* __restrict normalY = eye.guide.normal[1].data() + row;
-      const float* __restrict normalZ = eye.guide.normal[2].data() + row;
-      const float* __restrict gradientMagnitude = eye.guide.gradientMagnitude.data() + row;
-      const float* __restrict depthSpread = eye.guide.depthSpread.data() + row;
-      const ExpectedSurfaceRow ownSurface = expectedSurfaceOfGuide(eye.guide, row, p);
+      const float* __restrict seen = eye.surface.valid.data() + row;
+      const float* __restrict albedoRed = eye.surface.albedo[0].data() + row;
+      const float* __restrict albedoGreen = eye.surface.albedo[1].data() + row;
+      const float* __restrict albedoBlue = eye.surface.albedo[2].data() + row;
+      const float* __restrict normalX = eye.surface.normal[0].data() + row;
+      const float* __restrict normalY = eye.surface.normal[1].data() + row;
+      const float* __restrict normalZ = eye.surface.normal[2].data() + row;
+      const float* __restrict gradientMagnitude = eye.surface.gradientMagnitude.data() + row;
+      const float* __restrict depthSpread = eye.surface.depthSpread.data() + row;
+      const ExpectedSurfaceRow ownSurface = expectedSurfaceOf(eye.surface, row, p);
       if (p.crossViewSamples && usePreviousFrame && eye.hasPrevious)
       {
         // k_L^{t-1}, then k_R^{t-1} through the point stored there.
@@ -1891,18 +1934,17 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           previousOwn);
         if (stereo && other.hasPrevious)
         {
-          const float* __restrict storedSurfaces =
-            reinterpret_cast<const float*>(eye.previousSurface.data());
+          const StoredSurfaces storedSurfaces(eye.previousSurface);
           float* __restrict storedX = plane(PreviousOwnPosition);
           float* __restrict storedY = plane(PreviousOwnPosition + 1);
           float* __restrict storedZ = plane(PreviousOwnPosition + 2);
 #pragma GCC ivdep
           for (int k = 0; k < count; ++k)
           {
-            const int base = SurfaceFloats * previousOwnIndex[k];
-            storedX[k] = storedSurfaces[base + StoredPosition];
-            storedY[k] = storedSurfaces[base + StoredPosition + 1];
-            storedZ[k] = storedSurfaces[base + StoredPosition + 2];
+            const int q = previousOwnIndex[k];
+            storedX[k] = storedSurfaces.pointX[q];
+            storedY[k] = storedSurfaces.pointY[q];
+            storedZ[k] = storedSurfaces.pointZ[q];
           }
           float* __restrict otherPreviousPixelX = plane(PreviousOtherPixel);
           float* __restrict otherPreviousPixelY = plane(PreviousOtherPixel + 1);
@@ -2105,22 +2147,23 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       EyeState& eye = impl.eyes[e];
       const bool relight = relightEye[e]; // a relit frame reprojected the history already
       const NeighbourhoodMoments moments = neighbourhoodMomentsRow(
-        eye.guide, eye.fused, eye.rawLuminance, width, height, y, begin, end);
+        eye.surface, eye.fused, eye.rawLuminance, width, height, y, begin, end);
       // The reprojected history into planes (reprojectHistoryRow, vector loops over the taps; on
       // a relit frame the history the relighting ratio was computed from, pixel by pixel); the
-      // blending over those planes, which GCC vectorises; and its results written back into the
-      // per-pixel structs. The vector loops compute every value as a single per-pixel loop did,
-      // in the same order; where that loop skipped work (no surface, no history), they compute
-      // it anyway and select what the skipping gave.
+      // blending over those planes, which GCC vectorises; and its results copied into the
+      // history's structs and the surface planes. The vector loops compute every value as a single
+      // per-pixel loop did, in the same order; where that loop skipped work (no surface, no
+      // history), they compute it anyway and select what the skipping gave.
       using namespace temporal;
       const int count = end - begin;
       const std::size_t row = static_cast<std::size_t>(y) * width + begin; // pixel of x = begin
       thread_local std::vector<float> scratch;
-      scratch.assign(static_cast<std::size_t>(count) * TemporalPlaneCount, 0.0f);
+      scratch.resize(static_cast<std::size_t>(count) * TemporalPlaneCount);
+      std::fill(scratch.begin(), scratch.end(), 0.0f);
       const auto plane = [&](int index) { return scratch.data() + index * count; };
       const HistoryInfoPlanes previousInfo(plane(PreviousInfo), count);
       const HistoryInfoPlanes blendedInfo(plane(BlendedInfo), count);
-      std::copy_n(eye.guide.valid.data() + row, count, plane(Seen));
+      std::copy_n(eye.surface.valid.data() + row, count, plane(Seen));
       if (useHistory && eye.hasPrevious && !relight)
       {
         reprojectHistoryRow(eye, y, begin, count, width, height, p, scratch.data());
@@ -2131,7 +2174,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         {
           const std::size_t i = row + k;
           const ReprojectedHistory& reprojected = eye.relitHistory[i];
-          if (eye.surface[i].kind == SurfaceNone || !reprojected.valid)
+          if (!(eye.surface.valid[i] > 0.0f) || !reprojected.valid)
           {
             continue;
           }
@@ -2165,9 +2208,9 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       const float* __restrict ratioGreen = plane(RelightingRatio + 1);
       const float* __restrict ratioBlue = plane(RelightingRatio + 2);
       const float* __restrict relitHistoryAgrees = plane(RelightingRatio + 3);
-      const float* __restrict pointX = eye.guide.point[0].data() + row;
-      const float* __restrict pointY = eye.guide.point[1].data() + row;
-      const float* __restrict pointZ = eye.guide.point[2].data() + row;
+      const float* __restrict pointX = eye.surface.point[0].data() + row;
+      const float* __restrict pointY = eye.surface.point[1].data() + row;
+      const float* __restrict pointZ = eye.surface.point[2].data() + row;
       float* __restrict depthJitter = plane(DepthJitter);
       float* __restrict normalJitter = plane(NormalJitter);
       const float* __restrict currentRed = eye.fused.channel[0].data() + row;
@@ -2176,13 +2219,13 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       const float* __restrict currentCoverage = eye.fused.channel[3].data() + row;
       const float* __restrict fusedWeight = eye.fusedWeight.data() + row;
       const float* __restrict rawLuminanceOf = eye.rawLuminance.data() + row;
-      const float* __restrict depthOf = eye.guide.depth.data() + row;
+      const float* __restrict depthOf = eye.surface.depth.data() + row;
       float* __restrict accumulatedRed = eye.filtered[0].channel[0].data() + row;
       float* __restrict accumulatedGreen = eye.filtered[0].channel[1].data() + row;
       float* __restrict accumulatedBlue = eye.filtered[0].channel[2].data() + row;
       float* __restrict accumulatedCoverage = eye.filtered[0].channel[3].data() + row;
       float* __restrict variance = eye.variance[0].data() + row;
-      float* __restrict coverageSharpnessOf = eye.guide.coverageSharpness.data() + row;
+      float* __restrict coverageSharpnessOf = eye.surface.coverageSharpness.data() + row;
       // Loop invariants as locals: the stores through the planes could otherwise alias them.
       const glm::mat4 toPreviousWorld = eye.toPreviousWorld;
       const glm::vec3 centre = eyeCentre[e], previousCentre = previousEyeCentre[e];
@@ -2378,8 +2421,8 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         }
         const HistoryInfo info = blendedInfo.at(k);
         eye.nextHistoryInfo[i] = info;
-        eye.surface[i].depthJitter = depthJitter[k];
-        eye.surface[i].normalJitter = normalJitter[k];
+        eye.surface.depthJitter[i] = depthJitter[k];
+        eye.surface.normalJitter[i] = normalJitter[k];
         ++rowStatistics.surfaces;
         rowStatistics.fresh += info.frames <= 1.0f ? 1 : 0;
         rowStatistics.historyLengthSum += info.frames;
@@ -2405,7 +2448,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       [&](int e, int y, int begin, int end) HV_WIDEST_VECTORS
       {
         EyeState& eye = impl.eyes[e];
-        filterWaveletRow(eye.guide, eye.filtered[source], eye.variance[source],
+        filterWaveletRow(eye.surface, eye.filtered[source], eye.variance[source],
           eye.filtered[target], eye.variance[target], width, height, y, begin, end, step,
           p.luminanceSigma, p.wavelet);
       });
@@ -2420,10 +2463,12 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       for (int x = begin; x < end; ++x)
       {
         const std::size_t i = static_cast<std::size_t>(y) * width + x;
-        const Surface& s = eye.surface[i];
         const glm::vec4 filtered = in.at(i);
-        eye.firstStep[i] =
-          (s.kind != SurfaceNone && p.demodulateAlbedo) ? remodulate(filtered, s.albedo) : filtered;
+        const glm::vec3 albedo(
+          eye.surface.albedo[0][i], eye.surface.albedo[1][i], eye.surface.albedo[2][i]);
+        eye.firstStep[i] = (eye.surface.valid[i] > 0.0f && p.demodulateAlbedo)
+          ? remodulate(filtered, albedo)
+          : filtered;
         eye.filteredLuminance[i] = luminance(glm::vec3(filtered));
       }
     });
@@ -2528,16 +2573,15 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       float* __restrict otherLuminanceSum = planes.data() + 7 * count;
       float* __restrict otherVarianceSum = planes.data() + 8 * count;
       float* __restrict tapWeightSum = planes.data() + 9 * count;
-      bilinearTapsOfRow(otherPixelX, otherPixelY, otherOnScreen, eye.guide.valid.data() + row,
+      bilinearTapsOfRow(otherPixelX, otherPixelY, otherOnScreen, eye.surface.valid.data() + row,
         count, width, height, tapWeights.data(), tapIndices.data());
       {
-        const float* __restrict storedSurfaces =
-          reinterpret_cast<const float*>(other.surface.data());
+        const StoredSurfaces storedSurfaces(other.surface);
         const float* __restrict storedValue =
           reinterpret_cast<const float*>(other.firstStep.data());
         const float* __restrict storedLuminance = other.filteredLuminance.data();
         const float* __restrict storedVariance = other.variance[source].data();
-        const ExpectedSurfaceRow ownSurface = expectedSurfaceOfGuide(eye.guide, row, p);
+        const ExpectedSurfaceRow ownSurface = expectedSurfaceOf(eye.surface, row, p);
         for (int t = 0; t < 4; ++t)
         {
           const int* __restrict tapIndex = tapIndices.data() + t * count;
@@ -2546,7 +2590,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           for (int k = 0; k < count; ++k)
           {
             const int j = tapIndex[k];
-            const int stored = SurfaceFloats * j;
+            const std::uint32_t stored = static_cast<std::uint32_t>(j); // StoredSurfaces
             const float w = tapWeight[k];
             const bool take =
               (w > 0.0f) & ownSurface.consistentWith(storedSurfaces, stored, otherDepth[k], k);
@@ -2556,9 +2600,9 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
             otherGreen[k] += taken * storedValue[4 * j + 1];
             otherBlue[k] += taken * storedValue[4 * j + 2];
             otherCoverage[k] += taken * storedValue[4 * j + 3];
-            otherAlbedoRed[k] += taken * storedSurfaces[stored + StoredAlbedo];
-            otherAlbedoGreen[k] += taken * storedSurfaces[stored + StoredAlbedo + 1];
-            otherAlbedoBlue[k] += taken * storedSurfaces[stored + StoredAlbedo + 2];
+            otherAlbedoRed[k] += taken * storedSurfaces.albedoRed[stored];
+            otherAlbedoGreen[k] += taken * storedSurfaces.albedoGreen[stored];
+            otherAlbedoBlue[k] += taken * storedSurfaces.albedoBlue[stored];
             otherLuminanceSum[k] += taken * storedLuminance[j];
             otherVarianceSum[k] += taken * storedVariance[j];
             tapWeightSum[k] += taken;
@@ -2567,9 +2611,9 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       }
 
       const glm::vec4* __restrict ownValue = eye.firstStep.data() + row;
-      const float* __restrict albedoRed = eye.guide.albedo[0].data() + row;
-      const float* __restrict albedoGreen = eye.guide.albedo[1].data() + row;
-      const float* __restrict albedoBlue = eye.guide.albedo[2].data() + row;
+      const float* __restrict albedoRed = eye.surface.albedo[0].data() + row;
+      const float* __restrict albedoGreen = eye.surface.albedo[1].data() + row;
+      const float* __restrict albedoBlue = eye.surface.albedo[2].data() + row;
       const float* __restrict ownLuminance = eye.filteredLuminance.data() + row;
       const float* __restrict ownVariance = eye.variance[source].data() + row;
       float* __restrict outRow = out + 4 * row;
@@ -2648,7 +2692,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       fresh += row.fresh;
       lengthSum += row.historyLengthSum;
     }
-    const double pixels = static_cast<double>(eye.surface.size());
+    const double pixels = static_cast<double>(eye.surface.valid.size());
     this->Statistics.surfaceFraction[e] = surfaces / pixels;
     this->Statistics.disoccludedFraction[e] =
       surfaces ? static_cast<double>(fresh) / static_cast<double>(surfaces) : 0.0;
