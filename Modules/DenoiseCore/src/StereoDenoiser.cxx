@@ -1838,9 +1838,8 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       EyeState& other = impl.eyes[1 - e];
       // The row's points projected first, in a loop of their own that vectorises: into this
       // eye's previous frame (k_L^{t-1}, kept for the temporal blending) and into the other
-      // eye now (k_R^t). The points are read from the guide's planes (GCC does not vectorise the
-      // strided reads of glm's vectors in the surfaces), and the matrices are copied so that the
-      // stores cannot alias them.
+      // eye now (k_R^t). The points are read from the surface planes, and the matrices are
+      // copied so that the stores cannot alias them.
       const int count = end - begin;
       const std::size_t row = static_cast<std::size_t>(y) * width + begin; // pixel of x = begin
       thread_local std::vector<float> scratch;
@@ -1914,7 +1913,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       std::fill_n(ownSamples, count, 1.0f);
       std::fill_n(otherCoverage, count, 0.0f);
       std::fill_n(otherSamples, count, 1.0f);
-      // The pixel's own surface from the guide planes, which hold it for every pixel that
+      // The pixel's own surface from the surface planes, which hold it for every pixel that
       // sees one (seen).
       const float* __restrict seen = eye.surface.valid.data() + row;
       const float* __restrict albedoRed = eye.surface.albedo[0].data() + row;
