@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -168,14 +169,28 @@ struct SurfacePlanes
   std::vector<float> coverageSharpness;
   std::vector<float> point[3];
 
+  // The planes of Surface's fields (all but coverageSharpness).
+  std::array<std::vector<float>*, 15> fields()
+  {
+    return { &this->depth, &this->depthSpread, &this->gradientMagnitude, &this->normal[0],
+      &this->normal[1], &this->normal[2], &this->albedo[0], &this->albedo[1], &this->albedo[2],
+      &this->valid, &this->depthJitter, &this->normalJitter, &this->point[0], &this->point[1],
+      &this->point[2] };
+  }
   void assign(std::size_t n)
   {
-    for (std::vector<float>* plane : { &this->depth, &this->depthSpread, &this->gradientMagnitude,
-           &this->normal[0], &this->normal[1], &this->normal[2], &this->albedo[0], &this->albedo[1],
-           &this->albedo[2], &this->valid, &this->depthJitter, &this->normalJitter,
-           &this->coverageSharpness, &this->point[0], &this->point[1], &this->point[2] })
+    for (std::vector<float>* plane : this->fields())
     {
       plane->assign(n, 0.0f);
+    }
+    this->coverageSharpness.assign(n, 0.0f);
+  }
+  // Pixel `to` gets the surface of pixel `from`.
+  void copySurface(std::size_t from, std::size_t to)
+  {
+    for (std::vector<float>* plane : this->fields())
+    {
+      (*plane)[to] = (*plane)[from];
     }
   }
 };
@@ -409,8 +424,9 @@ HV_ALWAYS_INLINE inline BilinearTaps bilinearTaps(const glm::vec2& pixel, int wi
 }
 
 // The most pixels per eye whose stored history information a 32-bit index reaches as floats
-// (HistoryInfo's 7 floats a pixel, the most of any buffer the lookups read so).
-constexpr std::int64_t MaximumPixels = std::numeric_limits<int>::max() / 7;
+// (HistoryInfo's floats a pixel, the most of any buffer the lookups read so).
+constexpr std::int64_t MaximumPixels =
+  std::numeric_limits<int>::max() / static_cast<std::int64_t>(sizeof(HistoryInfo) / sizeof(float));
 
 // What the pixels of a row expect to find at their corresponding pixels in another view or
 // frame (normal, gradient magnitude and depth spread, one plane each) and the disocclusion
@@ -1729,14 +1745,8 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           if (own[n])
           {
             // Only pixels with their own point lend theirs, so the rows may borrow in any
-            // order. The depth spread and jitters are still 0 on both.
-            for (std::vector<float>* plane : { &surface.point[0], &surface.point[1],
-                   &surface.point[2], &surface.depth, &surface.normal[0], &surface.normal[1],
-                   &surface.normal[2], &surface.gradientMagnitude, &surface.albedo[0],
-                   &surface.albedo[1], &surface.albedo[2], &surface.valid })
-            {
-              (*plane)[i] = (*plane)[n];
-            }
+            // order.
+            surface.copySurface(n, i);
             break;
           }
         }
