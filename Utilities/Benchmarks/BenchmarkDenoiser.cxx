@@ -12,6 +12,8 @@
 #include "vtkStereoSpatioTemporalDenoiser.h"
 #include "vtkVolume.h"
 
+#include "hv/denoise/StereoDenoiser.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -195,9 +197,9 @@ int main(int argc, char* argv[])
   int dims[3];
   volumeData->GetDimensions(dims);
   std::printf("\nholovolume-denoise-benchmark: %s %dx%dx%d, %dx%d per eye, stereo, 2 spp, "
-              "threads=%d, SMP backend %s\n",
+              "threads=%d, SMP backend %s, denoiser tuned for %s\n",
     volumePath.substr(volumePath.find_last_of('/') + 1).c_str(), dims[0], dims[1], dims[2], width,
-    height, threads, vtkSMPTools::GetBackend());
+    height, threads, vtkSMPTools::GetBackend(), hv::denoise::StereoDenoiser::tuning());
   std::printf("median of %d frames (each a new view), wall-clock ms per stereo pair\n\n", frames);
   std::printf("%-56s %12s %12s\n", "", "median ms", "min ms");
   std::printf("%-56s %12.1f %12.1f\n", "vtkPathTracedVolumeMapper, 2 spp stereo frame",

@@ -1460,6 +1460,14 @@ void StereoDenoiser::reset()
   }
 }
 
+#ifndef HV_DENOISER_TUNE
+#define HV_DENOISER_TUNE "generic"
+#endif
+const char* StereoDenoiser::tuning()
+{
+  return HV_DENOISER_TUNE;
+}
+
 float StereoDenoiser::historyLength(int eye, int x, int y) const
 {
   if (eye < 0 || eye > 1)

@@ -194,6 +194,10 @@ public:
   // Frames of history an eye's pixel has (0 when none), for inspection.
   float historyLength(int eye, int x, int y) const;
 
+  // The CPU the loops were tuned for at build time (HOLOVOLUME_DENOISER_TUNE): "generic", or
+  // a GCC -mtune name such as "sapphirerapids". It changes speed, never results.
+  static const char* tuning();
+
 private:
   struct Internals;
   std::unique_ptr<Internals> Impl;
