@@ -2,6 +2,9 @@
 // Copyright (c) 2026 the HoloVolume developers.
 #include "hv/denoise/StereoDenoiser.h"
 
+#include "DenoisePlanes.h"
+#include "WaveletFilter.h"
+
 #include <glm/gtc/constants.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -26,39 +29,15 @@ namespace denoise
 {
 namespace
 {
+using detail::ColourPlanes;
+using detail::filterWaveletRow;
+using detail::SurfacePlanes;
 using Clock = std::chrono::steady_clock;
 
 double millisecondsSince(Clock::time_point start)
 {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
-
-// The per-pixel loops are compiled for AVX-512, AVX2 and baseline x86-64, and the loader
-// picks the widest that the CPU runs (GCC's function multiversioning, an ifunc), so one build
-// runs everywhere and uses what the machine has. On the project's machine the wavelet filter
-// took 68.5 ms per 1440x936 stereo pair with SSE2, 33.3 with AVX2 and 28.0 with AVX-512, and
-// the other stages, which vectorise little, gain about a tenth (holovolume-denoise-benchmark).
-// The versions compute every pixel alike (built with -ffp-contract=off; no sum runs across
-// pixels), so the evaluation's tables came out identical with the baseline
-// build. The mapper's render loop and LightingCore's pixel loops are cloned the same way.
-// Clang and other targets get the baseline build.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define HV_WIDEST_VECTORS                                                                          \
-  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
-#else
-#define HV_WIDEST_VECTORS
-#endif
-// For a lambda or helper called inside one of those loops: inlined, it is compiled into each
-// clone. A helper left out of line and not cloned runs its baseline (SSE-encoded) version from
-// the AVX-512 clone, and GCC 12 made that call without a vzeroupper: with bilinearTaps called
-// so, D2 took 51 ms per 1440x936 stereo pair instead of 15.8 on the project's machine. The
-// test Build.WideClonesCallNoBaselineCode (Utilities/Scripts/check-clone-calls.sh) fails on
-// such a call.
-#if defined(__GNUC__)
-#define HV_ALWAYS_INLINE __attribute__((always_inline))
-#else
-#define HV_ALWAYS_INLINE
-#endif
 
 // Per-pixel history: first and second moment of the luminance of one raw frame (for the
 // variance, SVGF Sec. 4.2), the accumulated sample count in raw frames, the history length in
@@ -114,33 +93,6 @@ struct RowSpan
   int end = 0;
 };
 
-// Radiance (or any RGBA signal) as four planes, so that the wavelet filter's loops over a row
-// of taps read contiguous floats and vectorise.
-struct ColourPlanes
-{
-  std::vector<float> channel[4];
-
-  void assign(std::size_t n)
-  {
-    for (std::vector<float>& c : this->channel)
-    {
-      c.assign(n, 0.0f);
-    }
-  }
-  glm::vec4 at(std::size_t i) const
-  {
-    return glm::vec4(
-      this->channel[0][i], this->channel[1][i], this->channel[2][i], this->channel[3][i]);
-  }
-  void set(std::size_t i, const glm::vec4& v)
-  {
-    this->channel[0][i] = v.x;
-    this->channel[1][i] = v.y;
-    this->channel[2][i] = v.z;
-    this->channel[3][i] = v.w;
-  }
-};
-
 // `value` where `keep` has all bits set, +0 where it has none.
 HV_ALWAYS_INLINE inline float keptIf(float value, std::uint32_t keep)
 {
@@ -150,50 +102,6 @@ HV_ALWAYS_INLINE inline float keptIf(float value, std::uint32_t keep)
   std::memcpy(&value, &bits, sizeof(value));
   return value;
 }
-
-// A frame's surfaces (the fields of Surface), one plane per field: the wavelet filter's
-// edge-stopping functions read them, and the next frame's lookups read them as the previous
-// frame's. `valid` is 1 where a surface is seen (Surface::kind is not SurfaceNone) and 0
-// elsewhere, including everywhere outside the spans, so a tap or lookup may land anywhere and
-// simply weigh nothing. `point` is Surface::firstScatterPosition, the point on the pixel-centre
-// ray that is reprojected. coverageSharpness is the sharpness of the wavelet filter's coverage
-// term, set by the temporal blending, which knows how many frames a pixel averages.
-// As planes rather than an array of Surface: the surfaces stage then fills them in loops that
-// vectorise, and each is written once (with the structs, the stage wrote every surface twice,
-// struct and planes, and took 12.2-12.6 ms per 1440x936 stereo pair of which 6.4 went to the
-// loop that copied the structs into the planes).
-struct SurfacePlanes
-{
-  std::vector<float> depth, depthSpread, gradientMagnitude, normal[3], albedo[3], valid;
-  std::vector<float> depthJitter, normalJitter;
-  std::vector<float> coverageSharpness;
-  std::vector<float> point[3];
-
-  // The planes of Surface's fields (all but coverageSharpness).
-  std::array<std::vector<float>*, 15> fields()
-  {
-    return { &this->depth, &this->depthSpread, &this->gradientMagnitude, &this->normal[0],
-      &this->normal[1], &this->normal[2], &this->albedo[0], &this->albedo[1], &this->albedo[2],
-      &this->valid, &this->depthJitter, &this->normalJitter, &this->point[0], &this->point[1],
-      &this->point[2] };
-  }
-  void assign(std::size_t n)
-  {
-    for (std::vector<float>* plane : this->fields())
-    {
-      plane->assign(n, 0.0f);
-    }
-    this->coverageSharpness.assign(n, 0.0f);
-  }
-  // Pixel `to` gets the surface of pixel `from`.
-  void copySurface(std::size_t from, std::size_t to)
-  {
-    for (std::vector<float>* plane : this->fields())
-    {
-      (*plane)[to] = (*plane)[from];
-    }
-  }
-};
 
 // Read-only pointers to a frame's surface planes, for the loops that look surfaces up at
 // computed indices (GCC vectorises base[index] loads through a named pointer, not through an
@@ -1063,11 +971,6 @@ HV_ALWAYS_INLINE inline void lookUpNearestRow(const SurfacePlanes& storedPlanes,
 }
 }
 
-// One level of the edge-aware a-trous wavelet filter for the pixels [begin, end) of row y:
-// 3x3 B-spline taps at distance `step`, each weighted by the edge-stopping functions and by
-// the variance-guided luminance term (SVGF Eq. 5), whose scale comes from the 3x3-blurred
-// variance. The loops run tap by tap over the whole span, so each one reads contiguous planes
-// and the compiler turns it into vector code.
 // Subnormal floats (below 1.2e-38) are flushed to zero while the denoiser's loops run on a
 // thread, and restored after. Dim radiance and small variances produce them, and each
 // arithmetic operation on one costs x86 a microcode assist: with them, the wavelet filter
@@ -1091,142 +994,6 @@ private:
   unsigned int Saved;
 #endif
 };
-
-HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide, const ColourPlanes& in,
-  const std::vector<float>& inVariance, ColourPlanes& out, std::vector<float>& outVariance,
-  int width, int height, int y, int begin, int end, int step, float luminanceSigma,
-  const EdgeStopping edges)
-{
-  // The loops are marked ivdep: their planes never overlap (GCC honours __restrict on these
-  // local pointers only in part), which is what lets it vectorise them.
-  static const float kernel[3] = { 0.25f, 0.5f, 0.25f };
-  const int count = end - begin;
-  thread_local std::vector<float> scratch;
-  scratch.resize(static_cast<std::size_t>(count) * 10);
-  std::fill(scratch.begin(), scratch.end(), 0.0f);
-  float* __restrict sum[4] = { scratch.data(), scratch.data() + count, scratch.data() + 2 * count,
-    scratch.data() + 3 * count };
-  float* __restrict varianceSum = scratch.data() + 4 * count;
-  float* __restrict weightSum = scratch.data() + 5 * count;
-  float* __restrict luminanceScale = scratch.data() + 6 * count;
-  float* __restrict centreLuminance = scratch.data() + 7 * count;
-  float* __restrict blurWeight = scratch.data() + 8 * count;
-  float* __restrict blurredVariance = scratch.data() + 9 * count;
-  const std::size_t row = static_cast<std::size_t>(y) * width + begin; // pixel of x = begin
-
-  const float* __restrict valid = guide.valid.data();
-  const float* __restrict variance = inVariance.data();
-  // SVGF's g3x3: the variance blurred over the seen pixels of the 3x3 neighbourhood.
-  for (int dy = -1; dy <= 1; ++dy)
-  {
-    if (y + dy < 0 || y + dy >= height)
-    {
-      continue;
-    }
-    for (int dx = -1; dx <= 1; ++dx)
-    {
-      const float k = kernel[dx + 1] * kernel[dy + 1];
-      const int first = glm::max(0, -dx - begin), last = glm::min(count, width - dx - begin);
-      const std::ptrdiff_t offset = static_cast<std::ptrdiff_t>(dy) * width + dx;
-#pragma GCC ivdep
-      for (int x = first; x < last; ++x)
-      {
-        const std::size_t j = row + x + offset;
-        blurredVariance[x] += k * valid[j] * variance[j];
-        blurWeight[x] += k * valid[j];
-      }
-    }
-  }
-  const float* __restrict r = in.channel[0].data();
-  const float* __restrict g = in.channel[1].data();
-  const float* __restrict b = in.channel[2].data();
-#pragma GCC ivdep
-  for (int x = 0; x < count; ++x)
-  {
-    const std::size_t i = row + x;
-    const float blurred = blurredVariance[x] / glm::max(blurWeight[x], 1e-12f);
-    luminanceScale[x] = 1.0f / (luminanceSigma * std::sqrt(blurred) + 1e-6f);
-    centreLuminance[x] = luminance(glm::vec3(r[i], g[i], b[i]));
-    // The centre tap, whose edge-stopping weight is 1.
-    const float w = kernel[1] * kernel[1];
-    for (int c = 0; c < 4; ++c)
-    {
-      sum[c][x] = w * in.channel[c][i];
-    }
-    varianceSum[x] = w * w * variance[i];
-    weightSum[x] = w;
-  }
-
-  const float* __restrict depth = guide.depth.data();
-  const float* __restrict spread = guide.depthSpread.data();
-  const float* __restrict gradient = guide.gradientMagnitude.data();
-  const float* __restrict nx = guide.normal[0].data();
-  const float* __restrict ny = guide.normal[1].data();
-  const float* __restrict nz = guide.normal[2].data();
-  const float* __restrict ax = guide.albedo[0].data();
-  const float* __restrict ay = guide.albedo[1].data();
-  const float* __restrict az = guide.albedo[2].data();
-  const float* __restrict a = in.channel[3].data();
-  const float* __restrict coverageSharpness = guide.coverageSharpness.data();
-  const float inverseAlbedo = inverseTwoSigmaSquared(edges.albedoSigma);
-  for (int dy = -1; dy <= 1; ++dy)
-  {
-    if (y + dy * step < 0 || y + dy * step >= height)
-    {
-      continue;
-    }
-    for (int dx = -1; dx <= 1; ++dx)
-    {
-      if (dx == 0 && dy == 0)
-      {
-        continue;
-      }
-      const float k = kernel[dx + 1] * kernel[dy + 1];
-      const int first = glm::max(0, -dx * step - begin);
-      const int last = glm::min(count, width - dx * step - begin);
-      const std::ptrdiff_t offset = (static_cast<std::ptrdiff_t>(dy) * width + dx) * step;
-#pragma GCC ivdep
-      for (int x = first; x < last; ++x)
-      {
-        const std::size_t i = row + x;
-        const std::size_t j = i + offset;
-        const float w = k * valid[j] *
-          waveletWeightOfChannels(depth[i], spread[i], gradient[i], glm::vec3(nx[i], ny[i], nz[i]),
-            glm::vec3(ax[i], ay[i], az[i]), centreLuminance[x], luminanceScale[x], depth[j],
-            spread[j], gradient[j], glm::vec3(nx[j], ny[j], nz[j]), glm::vec3(ax[j], ay[j], az[j]),
-            luminance(glm::vec3(r[j], g[j], b[j])), inverseAlbedo, edges,
-            (a[i] - a[j]) * (a[i] - a[j]) * coverageSharpness[i]);
-        sum[0][x] += w * r[j];
-        sum[1][x] += w * g[j];
-        sum[2][x] += w * b[j];
-        sum[3][x] += w * a[j];
-        varianceSum[x] += w * w * variance[j];
-        weightSum[x] += w;
-      }
-    }
-  }
-
-  // Unseen pixels keep their value (weightSum holds the centre tap's weight there too).
-  for (int c = 0; c < 4; ++c)
-  {
-    const float* __restrict source = in.channel[c].data();
-    float* __restrict target = out.channel[c].data();
-    const float* __restrict accumulated = sum[c];
-#pragma GCC ivdep
-    for (int x = 0; x < count; ++x)
-    {
-      const std::size_t i = row + x;
-      target[i] = valid[i] > 0.0f ? accumulated[x] / weightSum[x] : source[i];
-    }
-  }
-  float* __restrict filteredVariance = outVariance.data();
-#pragma GCC ivdep
-  for (int x = 0; x < count; ++x)
-  {
-    const std::size_t i = row + x;
-    filteredVariance[i] = valid[i] > 0.0f ? varianceSum[x] / (weightSum[x] * weightSum[x]) : 0.0f;
-  }
-}
 }
 
 struct StereoDenoiser::Internals

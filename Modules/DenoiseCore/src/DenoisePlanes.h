@@ -1,0 +1,123 @@
+// SPDX-License-Identifier: BSD-3-Clause
+// Copyright (c) 2026 the HoloVolume developers.
+//
+// Internal to HoloVolumeDenoiseCore: the planes the denoiser's per-pixel loops read and write,
+// and the attributes that compile those loops for several vector widths. Shared by
+// StereoDenoiser.cxx and WaveletFilter.cxx, which is built with options of its own.
+#ifndef hv_denoise_DenoisePlanes_h
+#define hv_denoise_DenoisePlanes_h
+
+#include <glm/glm.hpp>
+
+#include <array>
+#include <cstddef>
+#include <vector>
+
+// The per-pixel loops are compiled for AVX-512, AVX2 and baseline x86-64, and the loader
+// picks the widest that the CPU runs (GCC's function multiversioning, an ifunc), so one build
+// runs everywhere and uses what the machine has. On the project's machine the wavelet filter
+// took 68.5 ms per 1440x936 stereo pair with SSE2, 33.3 with AVX2 and 28.0 with AVX-512, and
+// the other stages, which vectorise little, gain about a tenth (holovolume-denoise-benchmark).
+// The versions compute every pixel alike (built with -ffp-contract=off; no sum runs across
+// pixels), so the evaluation's tables came out identical with the baseline
+// build. The mapper's render loop and LightingCore's pixel loops are cloned the same way.
+// Clang and other targets get the baseline build.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define HV_WIDEST_VECTORS                                                                          \
+  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#else
+#define HV_WIDEST_VECTORS
+#endif
+// For a lambda or helper called inside one of those loops: inlined, it is compiled into each
+// clone. A helper left out of line and not cloned runs its baseline (SSE-encoded) version from
+// the AVX-512 clone, and GCC 12 made that call without a vzeroupper: with bilinearTaps called
+// so, D2 took 51 ms per 1440x936 stereo pair instead of 15.8 on the project's machine. The
+// test Build.WideClonesCallNoBaselineCode (Utilities/Scripts/check-clone-calls.sh) fails on
+// such a call.
+#if defined(__GNUC__)
+#define HV_ALWAYS_INLINE __attribute__((always_inline))
+#else
+#define HV_ALWAYS_INLINE
+#endif
+
+namespace hv
+{
+namespace denoise
+{
+namespace detail
+{
+// Radiance (or any RGBA signal) as four planes, so that the wavelet filter's loops over a row
+// of taps read contiguous floats and vectorise.
+struct ColourPlanes
+{
+  std::vector<float> channel[4];
+
+  void assign(std::size_t n)
+  {
+    for (std::vector<float>& c : this->channel)
+    {
+      c.assign(n, 0.0f);
+    }
+  }
+  glm::vec4 at(std::size_t i) const
+  {
+    return glm::vec4(
+      this->channel[0][i], this->channel[1][i], this->channel[2][i], this->channel[3][i]);
+  }
+  void set(std::size_t i, const glm::vec4& v)
+  {
+    this->channel[0][i] = v.x;
+    this->channel[1][i] = v.y;
+    this->channel[2][i] = v.z;
+    this->channel[3][i] = v.w;
+  }
+};
+
+// A frame's surfaces (the fields of Surface), one plane per field: the wavelet filter's
+// edge-stopping functions read them, and the next frame's lookups read them as the previous
+// frame's. `valid` is 1 where a surface is seen (Surface::kind is not SurfaceNone) and 0
+// elsewhere, including everywhere outside the spans, so a tap or lookup may land anywhere and
+// simply weigh nothing. `point` is Surface::firstScatterPosition, the point on the pixel-centre
+// ray that is reprojected. coverageSharpness is the sharpness of the wavelet filter's coverage
+// term, set by the temporal blending, which knows how many frames a pixel averages.
+// As planes rather than an array of Surface: the surfaces stage then fills them in loops that
+// vectorise, and each is written once (with the structs, the stage wrote every surface twice,
+// struct and planes, and took 12.2-12.6 ms per 1440x936 stereo pair of which 6.4 went to the
+// loop that copied the structs into the planes).
+struct SurfacePlanes
+{
+  std::vector<float> depth, depthSpread, gradientMagnitude, normal[3], albedo[3], valid;
+  std::vector<float> depthJitter, normalJitter;
+  std::vector<float> coverageSharpness;
+  std::vector<float> point[3];
+
+  // The planes of Surface's fields (all but coverageSharpness).
+  std::array<std::vector<float>*, 15> fields()
+  {
+    return { &this->depth, &this->depthSpread, &this->gradientMagnitude, &this->normal[0],
+      &this->normal[1], &this->normal[2], &this->albedo[0], &this->albedo[1], &this->albedo[2],
+      &this->valid, &this->depthJitter, &this->normalJitter, &this->point[0], &this->point[1],
+      &this->point[2] };
+  }
+  void assign(std::size_t n)
+  {
+    for (std::vector<float>* plane : this->fields())
+    {
+      plane->assign(n, 0.0f);
+    }
+    this->coverageSharpness.assign(n, 0.0f);
+  }
+  // Pixel `to` gets the surface of pixel `from`.
+  void copySurface(std::size_t from, std::size_t to)
+  {
+    for (std::vector<float>* plane : this->fields())
+    {
+      (*plane)[to] = (*plane)[from];
+    }
+  }
+};
+}
+}
+}
+
+#endif
