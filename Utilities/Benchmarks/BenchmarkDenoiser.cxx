@@ -49,6 +49,9 @@ tracer's own frame time, in one run.
   --size WxH           per eye [1440x936, HoloLens 2]
   --frames N           timed frames after two warm-up frames [8]
   --threads N          vtkSMPTools threads [all cores]
+  --wavelet-levels N   a-trous levels of the denoisers' spatial filter, 0 to 10 [the
+                       denoiser's default, 4]; holovolume-denoise-evaluation takes the same
+                       option, for the quality they buy
   --help               this text
 )";
 }
@@ -59,6 +62,7 @@ int main(int argc, char* argv[])
   std::string volumePath = holovolume::DefaultVolume();
   std::string environmentPath = holovolume::DefaultEnvironment();
   int width = 1440, height = 936, frames = 8, threads = 0;
+  int waveletLevels = -1; // the denoiser's default
   for (int i = 1; i < argc; ++i)
   {
     const std::string arg = argv[i];
@@ -93,6 +97,15 @@ int main(int argc, char* argv[])
       frames = std::max(1, std::atoi(value().c_str()));
     else if (arg == "--threads")
       threads = std::max(0, std::atoi(value().c_str()));
+    else if (arg == "--wavelet-levels")
+    {
+      waveletLevels = std::atoi(value().c_str());
+      if (waveletLevels < 0 || waveletLevels > 10)
+      {
+        std::cerr << "holovolume-denoise-benchmark: --wavelet-levels wants 0 to 10\n";
+        return 2;
+      }
+    }
     else
     {
       std::cerr << "holovolume-denoise-benchmark: unknown option '" << arg << "'; see --help\n";
@@ -152,6 +165,13 @@ int main(int argc, char* argv[])
   variants[2].Denoiser->CrossViewSamplesOff();
   variants[2].Denoiser->TemporalAccumulationOff();
   variants[2].Denoiser->StereoBlendOff();
+  for (Variant& v : variants)
+  {
+    if (waveletLevels >= 0)
+    {
+      v.Denoiser->SetWaveletLevels(waveletLevels);
+    }
+  }
 
   std::vector<double> renderMs;
   const double aspect = static_cast<double>(width) / height;
@@ -200,6 +220,8 @@ int main(int argc, char* argv[])
               "threads=%d, SMP backend %s, denoiser tuned for %s\n",
     volumePath.substr(volumePath.find_last_of('/') + 1).c_str(), dims[0], dims[1], dims[2], width,
     height, threads, vtkSMPTools::GetBackend(), hv::denoise::StereoDenoiser::tuning());
+  std::printf("wavelet levels: %d%s\n", variants[0].Denoiser->GetWaveletLevels(),
+    waveletLevels >= 0 ? " (--wavelet-levels)" : " (the denoiser's default)");
   std::printf("median of %d frames (each a new view), wall-clock ms per stereo pair\n\n", frames);
   std::printf("%-56s %12s %12s\n", "", "median ms", "min ms");
   std::printf("%-56s %12.1f %12.1f\n", "vtkPathTracedVolumeMapper, 2 spp stereo frame",

@@ -51,6 +51,7 @@ struct Options
   std::string Sequences = "static,orbit,rotate,switch";
   std::string Images;
   int SwitchRuns = 4;
+  int WaveletLevels = -1; // the denoiser's default
 };
 
 void Usage()
@@ -72,6 +73,9 @@ head MRI under a real HDR panorama. Prints a Markdown table per sequence.
   --switch-runs N        repeat the light switch N times with independent random numbers
                          [4]: one 2-spp frame's PSNR varies by a few tenths of a dB, as much
                          as the recovery criterion's margin; its figures are means over runs
+  --wavelet-levels N     a-trous levels of every denoiser's spatial filter, 0 to 10 [the
+                         denoiser's default, 4]: its quality against its cost, which
+                         holovolume-denoise-benchmark --wavelet-levels N measures
   --help                 this text
 )";
 }
@@ -536,6 +540,15 @@ int main(int argc, char* argv[])
       options.Images = value();
     else if (arg == "--switch-runs")
       options.SwitchRuns = std::max(1, std::atoi(value().c_str()));
+    else if (arg == "--wavelet-levels")
+    {
+      options.WaveletLevels = std::atoi(value().c_str());
+      if (options.WaveletLevels < 0 || options.WaveletLevels > 10)
+      {
+        std::cerr << "holovolume-denoise-evaluation: --wavelet-levels wants 0 to 10\n";
+        return 2;
+      }
+    }
     else
     {
       std::cerr << "holovolume-denoise-evaluation: unknown option '" << arg << "'; see --help\n";
@@ -649,6 +662,10 @@ int main(int argc, char* argv[])
               "sRGB); both eyes, averaged over frames; threads=%d\n",
     options.Volume.c_str(), options.Environment.c_str(), options.Width, options.Height,
     options.Frames, options.ReferenceSamples, vtkSMPTools::GetEstimatedNumberOfThreads());
+  if (options.WaveletLevels >= 0)
+  {
+    std::printf("\nwavelet levels of every denoiser: %d\n", options.WaveletLevels);
+  }
 
   // Raw PSNR against the spp, for the equal-quality figure: the static view, an independent
   // sample set, against a reference of 4x the per-frame reference's samples.
@@ -782,6 +799,10 @@ int main(int argc, char* argv[])
         run[3]->StereoBlendOff();
         run[5]->SetStereoAgreementWidth(0.0);
         run[CoverageFilteredMethod]->SetCoverageAgreementWidth(0.0);
+        for (int method = 0; method < MethodCount && options.WaveletLevels >= 0; ++method)
+        {
+          run[method]->SetWaveletLevels(options.WaveletLevels);
+        }
       }
       vtkNew<vtkEnvironmentSyncedLight> light;
       light->SetInputDynamicRange(vtkEnvironmentSyncedLight::HIGH_DYNAMIC_RANGE);
