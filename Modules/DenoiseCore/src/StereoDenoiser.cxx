@@ -2228,8 +2228,9 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
   {
     const int step = 1 << level;
     const int target = 1 - source;
+    // filterWaveletRow is cloned in its own file; this caller has no loop of its own.
     impl.forSpans(eyeCount, height,
-      [&](int e, int y, int begin, int end) HV_WIDEST_VECTORS
+      [&](int e, int y, int begin, int end)
       {
         EyeState& eye = impl.eyes[e];
         filterWaveletRow(eye.surface, eye.filtered[source], eye.variance[source],
