@@ -506,8 +506,8 @@ inline void forStencilTaps(int x, int y, int width, int height, int step, Visit&
 // The 3x3 neighbourhood moments of the pixels [begin, end) of row y over the pixels that see
 // a surface (guide.valid): the count, the sums of the cross-view-fused value and of its
 // square (the history's clamping box), and of the raw luminance and its square (the
-// variance while the history is short). Written tap by tap over the whole span, like the
-// wavelet filter, so that the loops read contiguous planes and vectorise; the unseen taps
+// variance while the history is short). One loop over the span takes each pixel's nine taps,
+// reading the planes at consecutive pixels, so that it vectorises; the unseen taps
 // weigh 0. Each sum takes the taps in the order of forStencilTaps and adds an unseen tap as
 // an exact 0, so the sums are bit for bit those of the per-pixel loop over the stencil that
 // this replaced (the temporal stage went from 40.6 to 33-35 ms per 1440x936 stereo pair).
@@ -526,8 +526,7 @@ HV_WIDEST_VECTORS NeighbourhoodMoments neighbourhoodMomentsRow(const SurfacePlan
 {
   const int count = end - begin;
   thread_local std::vector<float> scratch;
-  scratch.resize(static_cast<std::size_t>(count) * 11);
-  std::fill(scratch.begin(), scratch.end(), 0.0f);
+  scratch.resize(static_cast<std::size_t>(count) * 11); // every value is written below
   NeighbourhoodMoments moments;
   for (int c = 0; c < 4; ++c)
   {
@@ -540,50 +539,112 @@ HV_WIDEST_VECTORS NeighbourhoodMoments neighbourhoodMomentsRow(const SurfacePlan
   const std::size_t row = static_cast<std::size_t>(y) * width + begin; // pixel of x = begin
   const float* __restrict valid = guide.valid.data();
   const float* __restrict luminanceOfRaw = rawLuminance.data();
+  const float* __restrict red = fused.channel[0].data();
+  const float* __restrict green = fused.channel[1].data();
+  const float* __restrict blue = fused.channel[2].data();
+  const float* __restrict coverage = fused.channel[3].data();
+  float* __restrict redSum = moments.sum[0];
+  float* __restrict greenSum = moments.sum[1];
+  float* __restrict blueSum = moments.sum[2];
+  float* __restrict coverageSum = moments.sum[3];
+  float* __restrict redSquareSum = moments.squareSum[0];
+  float* __restrict greenSquareSum = moments.squareSum[1];
+  float* __restrict blueSquareSum = moments.squareSum[2];
+  float* __restrict coverageSquareSum = moments.squareSum[3];
+  float* __restrict luminanceSum = moments.luminanceSum;
+  float* __restrict luminanceSquareSum = moments.luminanceSquareSum;
+  float* __restrict seen = moments.count;
+  // The nine taps in the order forStencilTaps takes them. A tap in a row outside the image
+  // reads the centre row with weight 0 and adds exactly +0, as if it were left out.
+  std::ptrdiff_t tapOffset[9];
+  float tapWeight[9];
+  int tapColumn[9];
+  int tap = 0;
   for (int dy = -1; dy <= 1; ++dy)
   {
-    if (y + dy < 0 || y + dy >= height)
+    const bool rowInside = y + dy >= 0 && y + dy < height;
+    for (int dx = -1; dx <= 1; ++dx, ++tap)
     {
-      continue;
+      tapColumn[tap] = dx;
+      tapOffset[tap] = rowInside ? static_cast<std::ptrdiff_t>(dy) * width + dx : dx;
+      tapWeight[tap] = rowInside ? 1.0f : 0.0f;
     }
-    for (int dx = -1; dx <= 1; ++dx)
+  }
+  // A pixel's nine taps in one pass, its eleven sums in registers (a pass per tap and sum
+  // streamed them through the cache nine times).
+  const auto momentsOfPixel = [&](int x, const std::ptrdiff_t(&offset)[9], const float(&weight)[9])
+                                HV_ALWAYS_INLINE
+  {
+    float sums[11] = {};
+    const auto addTap = [&](std::size_t j, float w) HV_ALWAYS_INLINE
     {
-      const int first = glm::max(0, -dx - begin), last = glm::min(count, width - dx - begin);
-      const std::ptrdiff_t offset = static_cast<std::ptrdiff_t>(dy) * width + dx;
+      const float taken = w * valid[j];
+      const float values[4] = { red[j], green[j], blue[j], coverage[j] };
       for (int c = 0; c < 4; ++c)
       {
-        const float* __restrict value = fused.channel[c].data();
-        float* __restrict sum = moments.sum[c];
-        float* __restrict squareSum = moments.squareSum[c];
-#pragma GCC ivdep
-        for (int x = first; x < last; ++x)
-        {
-          const std::size_t j = row + x + offset;
-          const float v = valid[j] * value[j];
-          sum[x] += v;
-          squareSum[x] += v * v;
-        }
+        const float v = taken * values[c];
+        sums[c] += v;
+        sums[4 + c] += v * v;
       }
-      float* __restrict luminanceSum = moments.luminanceSum;
-      float* __restrict luminanceSquareSum = moments.luminanceSquareSum;
-      float* __restrict seen = moments.count;
+      const float l = taken * luminanceOfRaw[j];
+      sums[8] += l;
+      sums[9] += l * l;
+      sums[10] += taken;
+    };
+    const std::size_t i = row + x;
+    addTap(i + offset[0], weight[0]);
+    addTap(i + offset[1], weight[1]);
+    addTap(i + offset[2], weight[2]);
+    addTap(i + offset[3], weight[3]);
+    addTap(i + offset[4], weight[4]);
+    addTap(i + offset[5], weight[5]);
+    addTap(i + offset[6], weight[6]);
+    addTap(i + offset[7], weight[7]);
+    addTap(i + offset[8], weight[8]);
+    redSum[x] = sums[0];
+    greenSum[x] = sums[1];
+    blueSum[x] = sums[2];
+    coverageSum[x] = sums[3];
+    redSquareSum[x] = sums[4];
+    greenSquareSum[x] = sums[5];
+    blueSquareSum[x] = sums[6];
+    coverageSquareSum[x] = sums[7];
+    luminanceSum[x] = sums[8];
+    luminanceSquareSum[x] = sums[9];
+    seen[x] = sums[10];
+  };
+  // The pixels whose taps all lie inside the image's columns, as vectors; then the pixels at
+  // its left and right edge.
+  const int interiorBegin = glm::clamp(1 - begin, 0, count);
+  const int interiorEnd = glm::clamp(width - 1 - begin, interiorBegin, count);
 #pragma GCC ivdep
-      for (int x = first; x < last; ++x)
+  for (int x = interiorBegin; x < interiorEnd; ++x)
+  {
+    momentsOfPixel(x, tapOffset, tapWeight);
+  }
+  const int edgeRanges[2][2] = { { 0, interiorBegin }, { interiorEnd, count } };
+  for (const auto& range : edgeRanges)
+  {
+    for (int x = range[0]; x < range[1]; ++x)
+    {
+      std::ptrdiff_t offset[9];
+      float weight[9];
+      for (int t = 0; t < 9; ++t)
       {
-        const std::size_t j = row + x + offset;
-        const float l = valid[j] * luminanceOfRaw[j];
-        luminanceSum[x] += l;
-        luminanceSquareSum[x] += l * l;
-        seen[x] += valid[j];
+        const int column = begin + x + tapColumn[t];
+        const bool inside = column >= 0 && column < width;
+        offset[t] = inside ? tapOffset[t] : 0;
+        weight[t] = inside ? tapWeight[t] : 0.0f;
       }
+      momentsOfPixel(x, offset, weight);
     }
   }
   return moments;
 }
 
 // The temporal blending's planes for a row (the temporal stage): each pixel's reprojected
-// history and its statistics, gathered tap by tap, and the blended statistics and learnt
-// jitters, copied into the eye's history and surface planes after the vector loop.
+// history and its statistics, gathered from its four bilinear taps, and the blended statistics and
+// learnt jitters, copied into the eye's history and surface planes after the vector loop.
 namespace temporal
 {
 // HistoryInfo of each pixel of a row as one plane per field.
@@ -658,19 +719,17 @@ static_assert(sizeof(HistoryInfo) == HistoryInfoPlanes::FieldCount * sizeof(floa
 // (consistentSurface), with the taps' statistics, the depth and normal differences to the stored
 // surfaces, and zeta of the best-weighted tap; into the planes HistoryValid to
 // NormalDifferenceSquare of `planes` (Plane's layout, `count` floats per plane), all 0 where no
-// tap is consistent or their weights sum to 0.05 or less. The taps are four passes over the
-// row, one tap of every pixel each, and an out-of-image or off-screen tap weighs 0, so that the
-// loops have no branches and vectorise; each sum takes the taps in the order of a per-pixel
-// loop over them, and a rejected tap adds an exact 0, so every value is bit for bit that of the
-// per-pixel loop that skipped it.
+// tap is consistent or their weights sum to 0.05 or less. An out-of-image or off-screen tap
+// weighs 0, so that the loop over the row's pixels has no branches and vectorises; each sum
+// takes the taps in the order of a per-pixel loop over them, and a rejected tap adds an exact 0,
+// so every value is bit for bit that of the per-pixel loop that skipped it.
 HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin, int count,
   int width, int height, const DenoiserParameters& p, float* planes)
 {
   const auto plane = [&](int index) { return planes + index * count; };
-  std::fill(plane(HistoryValid), plane(RelightingRatio), 0.0f);
   thread_local std::vector<float> tapWeights;
   thread_local std::vector<int> tapIndices;
-  tapWeights.resize(static_cast<std::size_t>(count) * 6);
+  tapWeights.resize(static_cast<std::size_t>(count) * 5);
   tapIndices.resize(static_cast<std::size_t>(count) * 5);
   const std::size_t row = static_cast<std::size_t>(y) * width + begin;
   const float* __restrict pixelX = eye.reprojectedPixel[0].data() + row;
@@ -689,11 +748,8 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
     pixelX, pixelY, onScreen, seen, count, width, height, tapWeights.data(), tapIndices.data());
 
   float* __restrict weightSum = tapWeights.data() + 4 * count;
-  float* __restrict bestWeight = tapWeights.data() + 5 * count;
   int* __restrict bestIndex = tapIndices.data() + 4 * count;
-  std::fill_n(weightSum, count, 0.0f);
-  std::fill_n(bestWeight, count, -1.0f);
-  std::copy_n(index00, count, bestIndex);
+  float* __restrict historyValid = plane(HistoryValid);
   float* __restrict valueRed = plane(HistoryValue);
   float* __restrict valueGreen = plane(HistoryValue + 1);
   float* __restrict valueBlue = plane(HistoryValue + 2);
@@ -706,6 +762,8 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
   float* __restrict infoDepthDifferenceSquareMean = info.depthDifferenceSquareMean;
   float* __restrict infoNormalDifferenceSquareMean = info.normalDifferenceSquareMean;
   float* __restrict infoDepthMean = info.depthMean;
+  float* __restrict zeta = plane(Zeta);
+  float* __restrict historyDepth = plane(ReprojectedDepth);
   float* __restrict depthDifferenceSquare = plane(DepthDifferenceSquare);
   float* __restrict normalDifferenceSquare = plane(NormalDifferenceSquare);
   const StoredSurfaces storedSurfaces(eye.previousSurface);
@@ -716,23 +774,28 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
   const float* __restrict normalX = expected.normalX;
   const float* __restrict normalY = expected.normalY;
   const float* __restrict normalZ = expected.normalZ;
-  const auto addTap = [&](const int* __restrict tapIndex, const float* __restrict tapWeight)
-                        HV_ALWAYS_INLINE
-  {
+  // The four taps of a pixel in one pass, with the fifteen sums in registers (a pass per tap
+  // streamed them through the cache four times), then normalised.
 #pragma GCC ivdep
-    for (int k = 0; k < count; ++k)
+  for (int k = 0; k < count; ++k)
+  {
+    const float depth = reprojectedDepth[k];
+    const glm::vec3 normal(normalX[k], normalY[k], normalZ[k]);
+    float red = 0.0f, green = 0.0f, blue = 0.0f, coverage = 0.0f;
+    float luminanceMean = 0.0f, luminanceSquareMean = 0.0f, sampleCount = 0.0f, frames = 0.0f;
+    float depthDifferenceSquareMean = 0.0f, normalDifferenceSquareMean = 0.0f, depthMean = 0.0f;
+    float depthDifferenceSquareSum = 0.0f, normalDifferenceSquareSum = 0.0f, sum = 0.0f;
+    float bestWeight = -1.0f;
+    int best = index00[k];
+    const auto addTap = [&](int j, float w) HV_ALWAYS_INLINE
     {
-      const int j = tapIndex[k];
-      const float w = tapWeight[k];
       // Indices into the float arrays, not pointers to the tap's struct: GCC takes only the
       // form base[index] for a gather.
       const int history = 4 * j;
       const int tapInfo = HistoryInfoPlanes::FieldCount * j;
-      const float depth = reprojectedDepth[k];
       // The planes read at j as an unsigned index (StoredSurfaces).
       const std::uint32_t stored = static_cast<std::uint32_t>(j);
       const float storedDepth = storedSurfaces.depth[stored];
-      const glm::vec3 normal(normalX[k], normalY[k], normalZ[k]);
       const glm::vec3 storedNormal(storedSurfaces.normalX[stored], storedSurfaces.normalY[stored],
         storedSurfaces.normalZ[stored]);
       const bool take = (w > 0.0f) & expected.consistentWith(storedSurfaces, stored, depth, k);
@@ -740,35 +803,51 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
       // (the sums are never -0). With a select between w h and 0, GCC would load h only for
       // the taken taps, and it emulates no masked gather.
       const float taken = take ? w : 0.0f;
-      valueRed[k] += taken * storedHistory[history];
-      valueGreen[k] += taken * storedHistory[history + 1];
-      valueBlue[k] += taken * storedHistory[history + 2];
-      valueCoverage[k] += taken * storedHistory[history + 3];
-      infoLuminanceMean[k] += taken * storedInfo[tapInfo];
-      infoLuminanceSquareMean[k] += taken * storedInfo[tapInfo + 1];
-      infoSampleCount[k] += taken * storedInfo[tapInfo + 2];
-      infoFrames[k] += taken * storedInfo[tapInfo + 3];
-      infoDepthDifferenceSquareMean[k] += taken * storedInfo[tapInfo + 4];
-      infoNormalDifferenceSquareMean[k] += taken * storedInfo[tapInfo + 5];
-      infoDepthMean[k] += taken * storedInfo[tapInfo + 6];
+      red += taken * storedHistory[history];
+      green += taken * storedHistory[history + 1];
+      blue += taken * storedHistory[history + 2];
+      coverage += taken * storedHistory[history + 3];
+      luminanceMean += taken * storedInfo[tapInfo];
+      luminanceSquareMean += taken * storedInfo[tapInfo + 1];
+      sampleCount += taken * storedInfo[tapInfo + 2];
+      frames += taken * storedInfo[tapInfo + 3];
+      depthDifferenceSquareMean += taken * storedInfo[tapInfo + 4];
+      normalDifferenceSquareMean += taken * storedInfo[tapInfo + 5];
+      depthMean += taken * storedInfo[tapInfo + 6];
       const float depthDifference = storedDepth - depth;
-      depthDifferenceSquare[k] += taken * depthDifference * depthDifference;
+      depthDifferenceSquareSum += taken * depthDifference * depthDifference;
       const float normalDifference = 1.0f - glm::dot(storedNormal, normal);
-      normalDifferenceSquare[k] += taken * normalDifference * normalDifference;
-      weightSum[k] += taken;
-      const bool best = take & (w > bestWeight[k]);
-      bestWeight[k] = best ? w : bestWeight[k];
-      bestIndex[k] = best ? j : bestIndex[k];
-    }
-  };
-  addTap(index00, weight00);
-  addTap(index10, weight10);
-  addTap(index01, weight01);
-  addTap(index11, weight11);
+      normalDifferenceSquareSum += taken * normalDifference * normalDifference;
+      sum += taken;
+      const bool better = take & (w > bestWeight);
+      bestWeight = better ? w : bestWeight;
+      best = better ? j : best;
+    };
+    addTap(index00[k], weight00[k]);
+    addTap(index10[k], weight10[k]);
+    addTap(index01[k], weight01[k]);
+    addTap(index11[k], weight11[k]);
+    weightSum[k] = sum;
+    bestIndex[k] = best;
+    const bool valid = sum > 0.05f;
+    const float inverse = 1.0f / sum;
+    historyValid[k] = valid ? 1.0f : 0.0f;
+    historyDepth[k] = valid ? depth : 0.0f;
+    valueRed[k] = valid ? red * inverse : 0.0f;
+    valueGreen[k] = valid ? green * inverse : 0.0f;
+    valueBlue[k] = valid ? blue * inverse : 0.0f;
+    valueCoverage[k] = valid ? coverage * inverse : 0.0f;
+    infoLuminanceMean[k] = valid ? luminanceMean * inverse : 0.0f;
+    infoLuminanceSquareMean[k] = valid ? luminanceSquareMean * inverse : 0.0f;
+    infoSampleCount[k] = valid ? sampleCount * inverse : 0.0f;
+    infoFrames[k] = valid ? frames * inverse : 0.0f;
+    infoDepthDifferenceSquareMean[k] = valid ? depthDifferenceSquareMean * inverse : 0.0f;
+    infoNormalDifferenceSquareMean[k] = valid ? normalDifferenceSquareMean * inverse : 0.0f;
+    infoDepthMean[k] = valid ? depthMean * inverse : 0.0f;
+    depthDifferenceSquare[k] = valid ? depthDifferenceSquareSum * inverse : 0.0f;
+    normalDifferenceSquare[k] = valid ? normalDifferenceSquareSum * inverse : 0.0f;
+  }
 
-  float* __restrict historyValid = plane(HistoryValid);
-  float* __restrict zeta = plane(Zeta);
-  float* __restrict historyDepth = plane(ReprojectedDepth);
   const float* __restrict albedoRed = eye.surface.albedo[0].data() + row;
   const float* __restrict albedoGreen = eye.surface.albedo[1].data() + row;
   const float* __restrict albedoBlue = eye.surface.albedo[2].data() + row;
@@ -777,7 +856,8 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
   for (int k = 0; k < count; ++k)
   {
     // zeta between the pixel's surface as the previous view sees it and the best tap's, in a
-    // loop of its own: beside the choices below GCC would move it under one and not vectorise.
+    // loop of its own: beside the choices above GCC would move it under one and not vectorise.
+    // It is 0 without a history: zeta is finite, and the product with 0 or 1 is exact.
     Surface current;
     current.albedo = glm::vec3(albedoRed[k], albedoGreen[k], albedoBlue[k]);
     current.normal = glm::vec3(normalX[k], normalY[k], normalZ[k]);
@@ -785,37 +865,15 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
     current.depth = reprojectedDepth[k];
     current.depthSpread = expected.depthSpread[k];
     const int stored = bestIndex[k];
-    Surface best;
-    best.albedo = glm::vec3(storedSurfaces.albedoRed[stored], storedSurfaces.albedoGreen[stored],
-      storedSurfaces.albedoBlue[stored]);
-    best.normal = glm::vec3(storedSurfaces.normalX[stored], storedSurfaces.normalY[stored],
+    Surface bestSurface;
+    bestSurface.albedo = glm::vec3(storedSurfaces.albedoRed[stored],
+      storedSurfaces.albedoGreen[stored], storedSurfaces.albedoBlue[stored]);
+    bestSurface.normal = glm::vec3(storedSurfaces.normalX[stored], storedSurfaces.normalY[stored],
       storedSurfaces.normalZ[stored]);
-    best.gradientMagnitude = storedSurfaces.gradientMagnitude[stored];
-    best.depth = storedSurfaces.depth[stored];
-    best.depthSpread = storedSurfaces.depthSpread[stored];
-    zeta[k] = bilateralWeight(current, best, edgeStopping);
-  }
-#pragma GCC ivdep
-  for (int k = 0; k < count; ++k)
-  {
-    const bool valid = weightSum[k] > 0.05f;
-    const float inverse = 1.0f / weightSum[k];
-    historyValid[k] = valid ? 1.0f : 0.0f;
-    zeta[k] = valid ? zeta[k] : 0.0f;
-    historyDepth[k] = valid ? reprojectedDepth[k] : 0.0f;
-    valueRed[k] = valid ? valueRed[k] * inverse : 0.0f;
-    valueGreen[k] = valid ? valueGreen[k] * inverse : 0.0f;
-    valueBlue[k] = valid ? valueBlue[k] * inverse : 0.0f;
-    valueCoverage[k] = valid ? valueCoverage[k] * inverse : 0.0f;
-    infoLuminanceMean[k] = valid ? infoLuminanceMean[k] * inverse : 0.0f;
-    infoLuminanceSquareMean[k] = valid ? infoLuminanceSquareMean[k] * inverse : 0.0f;
-    infoSampleCount[k] = valid ? infoSampleCount[k] * inverse : 0.0f;
-    infoFrames[k] = valid ? infoFrames[k] * inverse : 0.0f;
-    infoDepthDifferenceSquareMean[k] = valid ? infoDepthDifferenceSquareMean[k] * inverse : 0.0f;
-    infoNormalDifferenceSquareMean[k] = valid ? infoNormalDifferenceSquareMean[k] * inverse : 0.0f;
-    infoDepthMean[k] = valid ? infoDepthMean[k] * inverse : 0.0f;
-    depthDifferenceSquare[k] = valid ? depthDifferenceSquare[k] * inverse : 0.0f;
-    normalDifferenceSquare[k] = valid ? normalDifferenceSquare[k] * inverse : 0.0f;
+    bestSurface.gradientMagnitude = storedSurfaces.gradientMagnitude[stored];
+    bestSurface.depth = storedSurfaces.depth[stored];
+    bestSurface.depthSpread = storedSurfaces.depthSpread[stored];
+    zeta[k] = historyValid[k] * bilateralWeight(current, bestSurface, edgeStopping);
   }
 
   // The optional Catmull-Rom fetch where all four taps are inside the image and consistent.
@@ -2334,10 +2392,10 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       }
       // Then three steps: the other eye's bilinear taps looked up and tested, their weighted
       // sums into planes; lambda and the agreement; the blend. Each is a loop GCC vectorises.
-      // The lookup is the history's (reprojectHistoryRow): four passes over the row, one tap
-      // of every pixel each, where a tap off the image or not on the same surface adds 0 times
-      // its values, so every sum is bit for bit that of a per-pixel loop that skipped it (D2
-      // took 16.7-17.6 ms per 1440x936 stereo pair with that loop, 14.1-15.0 with these). The
+      // The lookup is the history's (reprojectHistoryRow): a tap off the image or not on the
+      // same surface adds 0 times its values, so every sum is bit for bit that of a per-pixel
+      // loop that skipped it (D2 took 16.7-17.6 ms per 1440x936 stereo pair with that loop,
+      // 14.1-15.0 with a pass per tap, before the loops were tuned for the CPU). The
       // later loops compute lambda and the blend for pixels without a consistent tap too, and
       // keep their own value.
       constexpr int PlaneCount = 11; // the other eye's sums, their weight, its blend weight
@@ -2347,7 +2405,6 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       planes.resize(static_cast<std::size_t>(count) * PlaneCount);
       tapWeights.resize(static_cast<std::size_t>(count) * 4);
       tapIndices.resize(static_cast<std::size_t>(count) * 4);
-      std::fill_n(planes.data(), 10 * count, 0.0f);
       float* __restrict otherRed = planes.data();
       float* __restrict otherGreen = planes.data() + count;
       float* __restrict otherBlue = planes.data() + 2 * count;
@@ -2367,31 +2424,53 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         const float* __restrict storedLuminance = other.filteredLuminance.data();
         const float* __restrict storedVariance = other.variance[source].data();
         const ExpectedSurfaceRow ownSurface = expectedSurfaceOf(eye.surface, row, p);
-        for (int t = 0; t < 4; ++t)
-        {
-          const int* __restrict tapIndex = tapIndices.data() + t * count;
-          const float* __restrict tapWeight = tapWeights.data() + t * count;
+        // A pixel's four taps in one pass, the sums in registers.
+        const int* __restrict index00 = tapIndices.data();
+        const int* __restrict index10 = tapIndices.data() + count;
+        const int* __restrict index01 = tapIndices.data() + 2 * count;
+        const int* __restrict index11 = tapIndices.data() + 3 * count;
+        const float* __restrict weight00 = tapWeights.data();
+        const float* __restrict weight10 = tapWeights.data() + count;
+        const float* __restrict weight01 = tapWeights.data() + 2 * count;
+        const float* __restrict weight11 = tapWeights.data() + 3 * count;
 #pragma GCC ivdep
-          for (int k = 0; k < count; ++k)
+        for (int k = 0; k < count; ++k)
+        {
+          float red = 0.0f, green = 0.0f, blue = 0.0f, coverage = 0.0f;
+          float albedoRedSum = 0.0f, albedoGreenSum = 0.0f, albedoBlueSum = 0.0f;
+          float luminanceSum = 0.0f, varianceSum = 0.0f, weightSum = 0.0f;
+          const auto addTap = [&](int j, float w) HV_ALWAYS_INLINE
           {
-            const int j = tapIndex[k];
             const std::uint32_t stored = static_cast<std::uint32_t>(j); // StoredSurfaces
-            const float w = tapWeight[k];
             const bool take =
               (w > 0.0f) & ownSurface.consistentWith(storedSurfaces, stored, otherDepth[k], k);
             // Times the weight, not a select of the product: GCC emulates no masked gather.
             const float taken = take ? w : 0.0f;
-            otherRed[k] += taken * storedValue[4 * j];
-            otherGreen[k] += taken * storedValue[4 * j + 1];
-            otherBlue[k] += taken * storedValue[4 * j + 2];
-            otherCoverage[k] += taken * storedValue[4 * j + 3];
-            otherAlbedoRed[k] += taken * storedSurfaces.albedoRed[stored];
-            otherAlbedoGreen[k] += taken * storedSurfaces.albedoGreen[stored];
-            otherAlbedoBlue[k] += taken * storedSurfaces.albedoBlue[stored];
-            otherLuminanceSum[k] += taken * storedLuminance[j];
-            otherVarianceSum[k] += taken * storedVariance[j];
-            tapWeightSum[k] += taken;
-          }
+            red += taken * storedValue[4 * j];
+            green += taken * storedValue[4 * j + 1];
+            blue += taken * storedValue[4 * j + 2];
+            coverage += taken * storedValue[4 * j + 3];
+            albedoRedSum += taken * storedSurfaces.albedoRed[stored];
+            albedoGreenSum += taken * storedSurfaces.albedoGreen[stored];
+            albedoBlueSum += taken * storedSurfaces.albedoBlue[stored];
+            luminanceSum += taken * storedLuminance[j];
+            varianceSum += taken * storedVariance[j];
+            weightSum += taken;
+          };
+          addTap(index00[k], weight00[k]);
+          addTap(index10[k], weight10[k]);
+          addTap(index01[k], weight01[k]);
+          addTap(index11[k], weight11[k]);
+          otherRed[k] = red;
+          otherGreen[k] = green;
+          otherBlue[k] = blue;
+          otherCoverage[k] = coverage;
+          otherAlbedoRed[k] = albedoRedSum;
+          otherAlbedoGreen[k] = albedoGreenSum;
+          otherAlbedoBlue[k] = albedoBlueSum;
+          otherLuminanceSum[k] = luminanceSum;
+          otherVarianceSum[k] = varianceSum;
+          tapWeightSum[k] = weightSum;
         }
       }
 

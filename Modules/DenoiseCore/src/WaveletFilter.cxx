@@ -21,16 +21,10 @@ HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide, const Colour
   static const float kernel[3] = { 0.25f, 0.5f, 0.25f };
   const int count = end - begin;
   thread_local std::vector<float> scratch;
-  scratch.resize(static_cast<std::size_t>(count) * 10);
+  scratch.resize(static_cast<std::size_t>(count) * 2);
   std::fill(scratch.begin(), scratch.end(), 0.0f);
-  float* __restrict sum[4] = { scratch.data(), scratch.data() + count, scratch.data() + 2 * count,
-    scratch.data() + 3 * count };
-  float* __restrict varianceSum = scratch.data() + 4 * count;
-  float* __restrict weightSum = scratch.data() + 5 * count;
-  float* __restrict luminanceScale = scratch.data() + 6 * count;
-  float* __restrict centreLuminance = scratch.data() + 7 * count;
-  float* __restrict blurWeight = scratch.data() + 8 * count;
-  float* __restrict blurredVariance = scratch.data() + 9 * count;
+  float* __restrict blurWeight = scratch.data();
+  float* __restrict blurredVariance = scratch.data() + count;
   const std::size_t row = static_cast<std::size_t>(y) * width + begin; // pixel of x = begin
 
   const float* __restrict valid = guide.valid.data();
@@ -56,26 +50,11 @@ HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide, const Colour
       }
     }
   }
+
   const float* __restrict r = in.channel[0].data();
   const float* __restrict g = in.channel[1].data();
   const float* __restrict b = in.channel[2].data();
-#pragma GCC ivdep
-  for (int x = 0; x < count; ++x)
-  {
-    const std::size_t i = row + x;
-    const float blurred = blurredVariance[x] / glm::max(blurWeight[x], 1e-12f);
-    luminanceScale[x] = 1.0f / (luminanceSigma * std::sqrt(blurred) + 1e-6f);
-    centreLuminance[x] = luminance(glm::vec3(r[i], g[i], b[i]));
-    // The centre tap, whose edge-stopping weight is 1.
-    const float w = kernel[1] * kernel[1];
-    for (int c = 0; c < 4; ++c)
-    {
-      sum[c][x] = w * in.channel[c][i];
-    }
-    varianceSum[x] = w * w * variance[i];
-    weightSum[x] = w;
-  }
-
+  const float* __restrict a = in.channel[3].data();
   const float* __restrict depth = guide.depth.data();
   const float* __restrict spread = guide.depthSpread.data();
   const float* __restrict gradient = guide.gradientMagnitude.data();
@@ -85,65 +64,117 @@ HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide, const Colour
   const float* __restrict ax = guide.albedo[0].data();
   const float* __restrict ay = guide.albedo[1].data();
   const float* __restrict az = guide.albedo[2].data();
-  const float* __restrict a = in.channel[3].data();
   const float* __restrict coverageSharpness = guide.coverageSharpness.data();
+  float* __restrict filteredRed = out.channel[0].data();
+  float* __restrict filteredGreen = out.channel[1].data();
+  float* __restrict filteredBlue = out.channel[2].data();
+  float* __restrict filteredCoverage = out.channel[3].data();
+  float* __restrict filteredVariance = outVariance.data();
   const float inverseAlbedo = inverseTwoSigmaSquared(edges.albedoSigma);
+
+  // The eight taps around the centre, in the order the sums take them (row by row), with their
+  // plane offsets and B-spline weights. A tap outside the image gets weight 0 and reads the
+  // centre pixel instead: it adds exactly +0 to every sum, as if it were left out.
+  std::ptrdiff_t tapOffset[8];
+  float tapKernel[8];
+  int tapColumn[8];
+  int tap = 0;
   for (int dy = -1; dy <= 1; ++dy)
   {
-    if (y + dy * step < 0 || y + dy * step >= height)
-    {
-      continue;
-    }
+    const bool rowInside = y + dy * step >= 0 && y + dy * step < height;
     for (int dx = -1; dx <= 1; ++dx)
     {
       if (dx == 0 && dy == 0)
       {
         continue;
       }
-      const float k = kernel[dx + 1] * kernel[dy + 1];
-      const int first = glm::max(0, -dx * step - begin);
-      const int last = glm::min(count, width - dx * step - begin);
-      const std::ptrdiff_t offset = (static_cast<std::ptrdiff_t>(dy) * width + dx) * step;
-#pragma GCC ivdep
-      for (int x = first; x < last; ++x)
-      {
-        const std::size_t i = row + x;
-        const std::size_t j = i + offset;
-        const float w = k * valid[j] *
-          waveletWeightOfChannels(depth[i], spread[i], gradient[i], glm::vec3(nx[i], ny[i], nz[i]),
-            glm::vec3(ax[i], ay[i], az[i]), centreLuminance[x], luminanceScale[x], depth[j],
-            spread[j], gradient[j], glm::vec3(nx[j], ny[j], nz[j]), glm::vec3(ax[j], ay[j], az[j]),
-            luminance(glm::vec3(r[j], g[j], b[j])), inverseAlbedo, edges,
-            (a[i] - a[j]) * (a[i] - a[j]) * coverageSharpness[i]);
-        sum[0][x] += w * r[j];
-        sum[1][x] += w * g[j];
-        sum[2][x] += w * b[j];
-        sum[3][x] += w * a[j];
-        varianceSum[x] += w * w * variance[j];
-        weightSum[x] += w;
-      }
+      tapColumn[tap] = dx * step;
+      tapOffset[tap] = rowInside ? (static_cast<std::ptrdiff_t>(dy) * width + dx) * step : 0;
+      tapKernel[tap] = rowInside ? kernel[dx + 1] * kernel[dy + 1] : 0.0f;
+      ++tap;
     }
   }
 
-  // Unseen pixels keep their value (weightSum holds the centre tap's weight there too).
-  for (int c = 0; c < 4; ++c)
-  {
-    const float* __restrict source = in.channel[c].data();
-    float* __restrict target = out.channel[c].data();
-    const float* __restrict accumulated = sum[c];
-#pragma GCC ivdep
-    for (int x = 0; x < count; ++x)
-    {
-      const std::size_t i = row + x;
-      target[i] = valid[i] > 0.0f ? accumulated[x] / weightSum[x] : source[i];
-    }
-  }
-  float* __restrict filteredVariance = outVariance.data();
-#pragma GCC ivdep
-  for (int x = 0; x < count; ++x)
+  // One pixel, all nine taps: its guide and its sums stay in registers, where a loop per tap
+  // streamed the sums and the centre's guide through the cache eight times.
+  auto filterPixel = [&](int x, const std::ptrdiff_t(&offset)[8], const float(&k)[8])
+                       HV_ALWAYS_INLINE
   {
     const std::size_t i = row + x;
-    filteredVariance[i] = valid[i] > 0.0f ? varianceSum[x] / (weightSum[x] * weightSum[x]) : 0.0f;
+    const float blurred = blurredVariance[x] / glm::max(blurWeight[x], 1e-12f);
+    const float luminanceScale = 1.0f / (luminanceSigma * std::sqrt(blurred) + 1e-6f);
+    const float centreLuminance = luminance(glm::vec3(r[i], g[i], b[i]));
+    // The centre tap, whose edge-stopping weight is 1.
+    const float centreWeight = kernel[1] * kernel[1];
+    float redSum = centreWeight * r[i];
+    float greenSum = centreWeight * g[i];
+    float blueSum = centreWeight * b[i];
+    float coverageSum = centreWeight * a[i];
+    float varianceSum = centreWeight * centreWeight * variance[i];
+    float weightSum = centreWeight;
+    auto addTap = [&](std::ptrdiff_t tapOffset, float k) HV_ALWAYS_INLINE
+    {
+      const std::size_t j = i + tapOffset;
+      const float w = k * valid[j] *
+        waveletWeightOfChannels(depth[i], spread[i], gradient[i], glm::vec3(nx[i], ny[i], nz[i]),
+          glm::vec3(ax[i], ay[i], az[i]), centreLuminance, luminanceScale, depth[j], spread[j],
+          gradient[j], glm::vec3(nx[j], ny[j], nz[j]), glm::vec3(ax[j], ay[j], az[j]),
+          luminance(glm::vec3(r[j], g[j], b[j])), inverseAlbedo, edges,
+          (a[i] - a[j]) * (a[i] - a[j]) * coverageSharpness[i]);
+      redSum += w * r[j];
+      greenSum += w * g[j];
+      blueSum += w * b[j];
+      coverageSum += w * a[j];
+      varianceSum += w * w * variance[j];
+      weightSum += w;
+    };
+    // Written out: GCC 12 vectorises the pixel loop only once no loop is left inside it.
+    addTap(offset[0], k[0]);
+    addTap(offset[1], k[1]);
+    addTap(offset[2], k[2]);
+    addTap(offset[3], k[3]);
+    addTap(offset[4], k[4]);
+    addTap(offset[5], k[5]);
+    addTap(offset[6], k[6]);
+    addTap(offset[7], k[7]);
+    // Unseen pixels keep their value (weightSum holds the centre tap's weight there too). A
+    // product with 0 or 1, not a select: for AVX2 and AVX-512, GCC 12 leaves a branch for the
+    // select, which keeps the loop scalar. All terms are finite, so the other one adds exactly 0.
+    const float seen = valid[i] > 0.0f ? 1.0f : 0.0f;
+    const float unseen = 1.0f - seen;
+    filteredRed[i] = seen * (redSum / weightSum) + unseen * r[i];
+    filteredGreen[i] = seen * (greenSum / weightSum) + unseen * g[i];
+    filteredBlue[i] = seen * (blueSum / weightSum) + unseen * b[i];
+    filteredCoverage[i] = seen * (coverageSum / weightSum) + unseen * a[i];
+    filteredVariance[i] = seen * (varianceSum / (weightSum * weightSum));
+  };
+
+  // The pixels whose taps all lie inside the image's columns, as vectors.
+  const int interiorBegin = glm::clamp(step - begin, 0, count);
+  const int interiorEnd = glm::clamp(width - step - begin, interiorBegin, count);
+#pragma GCC ivdep
+  for (int x = interiorBegin; x < interiorEnd; ++x)
+  {
+    filterPixel(x, tapOffset, tapKernel);
+  }
+  // The few pixels within `step` of the image's left or right edge. (Not a lambda: a closure
+  // that refers to filterPixel keeps GCC from vectorising the loop above.)
+  const int edgeRanges[2][2] = { { 0, interiorBegin }, { interiorEnd, count } };
+  for (const auto& range : edgeRanges)
+  {
+    for (int x = range[0]; x < range[1]; ++x)
+    {
+      std::ptrdiff_t offset[8];
+      float k[8];
+      for (int t = 0; t < 8; ++t)
+      {
+        const int column = begin + x + tapColumn[t];
+        const bool inside = column >= 0 && column < width;
+        offset[t] = inside ? tapOffset[t] : 0;
+        k[t] = inside ? tapKernel[t] : 0.0f;
+      }
+      filterPixel(x, offset, k);
+    }
   }
 }
 }

@@ -21,8 +21,8 @@ namespace detail
 // One level of the edge-aware a-trous wavelet filter for the pixels [begin, end) of row y:
 // 3x3 B-spline taps at distance `step`, each weighted by the edge-stopping functions and by
 // the variance-guided luminance term (SVGF Eq. 5), whose scale comes from the 3x3-blurred
-// variance. The loops run tap by tap over the whole span, so each one reads contiguous planes
-// and the compiler turns it into vector code.
+// variance. One loop over the span takes each pixel's nine taps, reading every plane at
+// consecutive pixels, so the compiler turns it into vector code.
 // Each call writes the row's pixels of `out` and `outVariance` from those of `in` and
 // `inVariance` around them; the rows of a level may therefore run in any order and in parallel.
 void filterWaveletRow(const SurfacePlanes& guide, const ColourPlanes& in,
