@@ -52,6 +52,9 @@ struct HistoryInfo
   float depthDifferenceSquareMean = 0.0f;
   float normalDifferenceSquareMean = 0.0f; // of 1 - cosine
   float depthMean = 0.0f;                  // of the first scatter depth, in the frame's view
+  // Unused, 0: with eight floats a row of these is written by vector stores (GCC 12 vectorises
+  // an interleaved group of 2^n floats, not of 7).
+  float padding = 0.0f;
 
   // this += w h, field by field: a bilinear reprojection sums its taps' statistics so.
   void addWeighted(float w, const HistoryInfo& h)
@@ -428,14 +431,6 @@ HV_ALWAYS_INLINE inline int nearestPixel(const glm::vec2& pixel, int width)
   return static_cast<int>(pixel.y) * width + static_cast<int>(pixel.x);
 }
 
-// The surface as another view sees the same point: the depth becomes that view's depth of it.
-Surface asSeenFrom(const Surface& surface, float viewDepth)
-{
-  Surface seen = surface;
-  seen.depth = viewDepth;
-  return seen;
-}
-
 // The history's colour by a Catmull-Rom fetch over the 4x4 taps around `pixel`, where all of
 // them see the same surface; clamped to the range of the four bilinear taps so that the
 // cubic's lobes cannot overshoot. Elsewhere (an edge, a disocclusion, the image border) the
@@ -711,8 +706,10 @@ enum Plane
 };
 
 // HistoryInfo as an array of floats, so that the history lookup reads it at computed indices.
-static_assert(sizeof(HistoryInfo) == HistoryInfoPlanes::FieldCount * sizeof(float),
-  "the history lookup reads HistoryInfo as floats");
+// HistoryInfo's floats, the fields in HistoryInfoPlanes' order and then the padding.
+constexpr int HistoryInfoFloats = HistoryInfoPlanes::FieldCount + 1;
+static_assert(sizeof(HistoryInfo) == HistoryInfoFloats * sizeof(float),
+  "the history lookup reads and the temporal blending writes HistoryInfo as floats");
 
 // The history of the pixels [begin, begin + count) of row y at pi^{t-1}(x(k^t))
 // (EyeState::reprojectedPixel): bilinear over the taps whose stored surface is the same point
@@ -792,7 +789,7 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
       // Indices into the float arrays, not pointers to the tap's struct: GCC takes only the
       // form base[index] for a gather.
       const int history = 4 * j;
-      const int tapInfo = HistoryInfoPlanes::FieldCount * j;
+      const int tapInfo = HistoryInfoFloats * j;
       // The planes read at j as an unsigned index (StoredSurfaces).
       const std::uint32_t stored = static_cast<std::uint32_t>(j);
       const float storedDepth = storedSurfaces.depth[stored];
@@ -923,88 +920,91 @@ HV_ALWAYS_INLINE inline ReprojectedHistory reprojectedHistoryAt(
 
 namespace crossview
 {
-// For a row of pixels, the surface stored at each one's corresponding pixel in another view or
-// frame (the fields zeta reads), one plane per field, and the depth the pixel's own point has
-// in that view.
-struct StoredSurfacePlanes
+// Of the surface found at k_L^{t-1}, what the lookup of k_R^{t-1} through it needs: the point
+// it projects, and the normal, gradient magnitude and depth spread it expects there. One plane
+// of a row's pixels per field.
+struct KeptSurfacePlanes
 {
-  static constexpr int FieldCount = 10;
-  float* albedoRed;
-  float* albedoGreen;
-  float* albedoBlue;
+  static constexpr int FieldCount = 8;
   float* normalX;
   float* normalY;
   float* normalZ;
   float* gradientMagnitude;
-  float* depth;
   float* depthSpread;
-  float* seenDepth;
+  float* pointX;
+  float* pointY;
+  float* pointZ;
 
-  StoredSurfacePlanes(float* first, int count)
-    : albedoRed(first)
-    , albedoGreen(first + count)
-    , albedoBlue(first + 2 * count)
-    , normalX(first + 3 * count)
-    , normalY(first + 4 * count)
-    , normalZ(first + 5 * count)
-    , gradientMagnitude(first + 6 * count)
-    , depth(first + 7 * count)
-    , depthSpread(first + 8 * count)
-    , seenDepth(first + 9 * count)
+  KeptSurfacePlanes(float* first, int count)
+    : normalX(first)
+    , normalY(first + count)
+    , normalZ(first + 2 * count)
+    , gradientMagnitude(first + 3 * count)
+    , depthSpread(first + 4 * count)
+    , pointX(first + 5 * count)
+    , pointY(first + 6 * count)
+    , pointZ(first + 7 * count)
   {
-  }
-  Surface at(int k) const
-  {
-    Surface stored;
-    stored.albedo = glm::vec3(this->albedoRed[k], this->albedoGreen[k], this->albedoBlue[k]);
-    stored.normal = glm::vec3(this->normalX[k], this->normalY[k], this->normalZ[k]);
-    stored.gradientMagnitude = this->gradientMagnitude[k];
-    stored.depth = this->depth[k];
-    stored.depthSpread = this->depthSpread[k];
-    return stored;
   }
 };
 
 enum Plane
 {
-  OtherNow,                                                      // k_R^t
-  PreviousOwn = OtherNow + StoredSurfacePlanes::FieldCount,      // k_L^{t-1}
-  PreviousOther = PreviousOwn + StoredSurfacePlanes::FieldCount, // k_R^{t-1}
-  // 1 where the corresponding pixel holds the same surface, 0 elsewhere.
-  OtherNowTaken = PreviousOther + StoredSurfacePlanes::FieldCount,
+  // For k_R^t, k_L^{t-1} and k_R^{t-1}: 1 where the corresponding pixel holds the same
+  // surface, 0 elsewhere; zeta between the pixel's surface and the one stored there.
+  OtherNowTaken,
   PreviousOwnTaken,
   PreviousOtherTaken,
-  // x(k_L^{t-1}), and where it lies in the other eye's previous view (pixel 0 off its screen).
-  PreviousOwnPosition,
-  PreviousOtherPixel = PreviousOwnPosition + 3,
+  OtherNowZeta,
+  PreviousOwnZeta,
+  PreviousOtherZeta,
+  PreviousOwnKept,
+  // Where x(k_L^{t-1}) lies in the other eye's previous view (pixel 0 off its screen).
+  PreviousOtherPixel = PreviousOwnKept + KeptSurfacePlanes::FieldCount,
   PreviousOtherDepth = PreviousOtherPixel + 2,
   PreviousOtherOnScreen,
-  // The eyes' accumulated coverages at k_L^{t-1} and k_R^{t-1} and their sample counts
-  // (crossViewCoverage); equal coverages where they are not compared, which give exactly 1.
-  OwnCoverage,
-  OwnSamples,
-  OtherCoverage,
-  OtherSamples,
-  WeightOtherNow,
-  WeightPreviousOwn,
-  WeightPreviousOther,
-  CrossViewPlaneCount
+  PlaneCount
 };
+}
 
-// The corresponding pixels of a row in another view or frame: for each pixel k that is `seen`
-// (has a surface to look up) with a point on the screen (`onScreen`), the surface stored at the
-// nearest pixel to (pixelX, pixelY), which must be on the screen or pixel 0, tested against the
-// surface pixel k expects there (its point at view depth `depth`, with the normal, gradient and
-// depth spread given) by consistentSurfaceOfChannels. Writes the pixel's index to `nearest`, 1 or 0
-// to `taken`, and the stored surface's fields to `stored` for every pixel, taken or not. Without
-// branches, reading the stored planes at computed indices, so that the loop vectorises.
+// The corresponding pixels of a row in another view or frame, and zeta of their samples: for
+// each pixel k that is `seen` (has a surface to look up) with a point on the screen
+// (`onScreen`), the surface stored at the nearest pixel to (pixelX, pixelY), which must be on
+// the screen or pixel 0, tested against the surface pixel k expects there (its point at view
+// depth `depth`, with the normal, gradient and depth spread of `expected`) by
+// consistentSurfaceOfChannels. Writes the pixel's index to `nearest`, 1 or 0 to `taken`, and
+// to `zeta` the bilateral weight between the pixel's own surface (the normal, gradient and
+// depth spread of `own`, and `ownAlbedo`; at that depth) and the stored one, for every pixel,
+// taken or not. With Keep, also the stored surface's fields that a lookup through it needs,
+// to `kept`. Without branches, reading the stored planes at computed indices, so that the loop
+// vectorises; the weight is computed in the same loop, so that the stored surface is read once
+// and never written out.
+template <bool Keep>
 HV_ALWAYS_INLINE inline void lookUpNearestRow(const SurfacePlanes& storedPlanes,
   const float* __restrict pixelX, const float* __restrict pixelY, const float* __restrict onScreen,
   const float* __restrict seen, const float* __restrict depth, const ExpectedSurfaceRow& expected,
-  int count, int width, int* __restrict nearest, float* __restrict taken,
-  const StoredSurfacePlanes& stored)
+  const ExpectedSurfaceRow& own, const float* const ownAlbedo[3], const EdgeStopping& crossView,
+  int count, int width, int* __restrict nearest, float* __restrict taken, float* __restrict zeta,
+  const crossview::KeptSurfacePlanes& kept)
 {
   const StoredSurfaces storedSurfaces(storedPlanes);
+  const float* __restrict albedoRed = ownAlbedo[0];
+  const float* __restrict albedoGreen = ownAlbedo[1];
+  const float* __restrict albedoBlue = ownAlbedo[2];
+  const float* __restrict normalX = own.normalX;
+  const float* __restrict normalY = own.normalY;
+  const float* __restrict normalZ = own.normalZ;
+  const float* __restrict gradientMagnitude = own.gradientMagnitude;
+  const float* __restrict depthSpread = own.depthSpread;
+  const EdgeStopping weights = crossView;
+  float* __restrict keptNormalX = kept.normalX;
+  float* __restrict keptNormalY = kept.normalY;
+  float* __restrict keptNormalZ = kept.normalZ;
+  float* __restrict keptGradientMagnitude = kept.gradientMagnitude;
+  float* __restrict keptDepthSpread = kept.depthSpread;
+  float* __restrict keptPointX = kept.pointX;
+  float* __restrict keptPointY = kept.pointY;
+  float* __restrict keptPointZ = kept.pointZ;
 #pragma GCC ivdep
   for (int k = 0; k < count; ++k)
   {
@@ -1015,18 +1015,34 @@ HV_ALWAYS_INLINE inline void lookUpNearestRow(const SurfacePlanes& storedPlanes,
         expected.consistentWith(storedSurfaces, index, depth[k], k)
       ? 1.0f
       : 0.0f;
-    stored.albedoRed[k] = storedSurfaces.albedoRed[index];
-    stored.albedoGreen[k] = storedSurfaces.albedoGreen[index];
-    stored.albedoBlue[k] = storedSurfaces.albedoBlue[index];
-    stored.normalX[k] = storedSurfaces.normalX[index];
-    stored.normalY[k] = storedSurfaces.normalY[index];
-    stored.normalZ[k] = storedSurfaces.normalZ[index];
-    stored.gradientMagnitude[k] = storedSurfaces.gradientMagnitude[index];
-    stored.depth[k] = storedSurfaces.depth[index];
-    stored.depthSpread[k] = storedSurfaces.depthSpread[index];
-    stored.seenDepth[k] = depth[k];
+    Surface stored;
+    stored.albedo = glm::vec3(storedSurfaces.albedoRed[index], storedSurfaces.albedoGreen[index],
+      storedSurfaces.albedoBlue[index]);
+    stored.normal = glm::vec3(
+      storedSurfaces.normalX[index], storedSurfaces.normalY[index], storedSurfaces.normalZ[index]);
+    stored.gradientMagnitude = storedSurfaces.gradientMagnitude[index];
+    stored.depth = storedSurfaces.depth[index];
+    stored.depthSpread = storedSurfaces.depthSpread[index];
+    // The pixel's own surface, as the view of the stored one sees its point.
+    Surface s;
+    s.albedo = glm::vec3(albedoRed[k], albedoGreen[k], albedoBlue[k]);
+    s.normal = glm::vec3(normalX[k], normalY[k], normalZ[k]);
+    s.gradientMagnitude = gradientMagnitude[k];
+    s.depthSpread = depthSpread[k];
+    s.depth = depth[k];
+    zeta[k] = bilateralWeight(s, stored, weights);
+    if constexpr (Keep)
+    {
+      keptNormalX[k] = stored.normal.x;
+      keptNormalY[k] = stored.normal.y;
+      keptNormalZ[k] = stored.normal.z;
+      keptGradientMagnitude[k] = stored.gradientMagnitude;
+      keptDepthSpread[k] = stored.depthSpread;
+      keptPointX[k] = storedSurfaces.pointX[index];
+      keptPointY[k] = storedSurfaces.pointY[index];
+      keptPointZ[k] = storedSurfaces.pointZ[index];
+    }
   }
-}
 }
 
 // Subnormal floats (below 1.2e-38) are flushed to zero while the denoiser's loops run on a
@@ -1723,75 +1739,63 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         otherPixelY[x] = otherSeen ? pixel.y : 0.0f;
         otherDepth[x] = depth;
       }
-      // Then the corresponding pixels looked up and tested (lookUpNearestRow), their surfaces
-      // gathered into planes; the weights over those planes; and the weighted sum. Each is a
-      // loop GCC vectorises: they compute the lookups and weights of samples that do not exist
-      // too, and a missing sample adds 0 times its values, an exact 0. Every value is bit for
-      // bit that of a single per-pixel loop that skipped them. With such a loop the stage took
-      // 18.8-20.0 ms per 1440x936 stereo pair, with these 13.5-14.4 (min of 8 frames, seven runs
-      // of each in turns, holovolume-denoise-benchmark).
-      using namespace crossview;
+      // Then the corresponding pixels looked up and tested for the same surface, each lookup
+      // with its sample's zeta (lookUpNearestRow), and the weighted sum. Each is a loop GCC
+      // vectorises: they compute the lookups and weights of samples that do not exist too,
+      // and a missing sample adds 0 times its values, an exact 0. Every value is bit for bit
+      // that of a single per-pixel loop that skipped them. Such a loop took 18.8-20.0 ms per
+      // 1440x936 stereo pair, these 13.5-14.4 while the lookups gathered their surfaces into
+      // planes for a loop of weights. On a later machine that version took 12.3-12.6, and
+      // 10.8-11.1 with each lookup computing its zeta; one pass over the row for everything,
+      // whose registers spill, took 17.4-17.7 (min of 8 frames, runs in turns,
+      // holovolume-denoise-benchmark).
       thread_local std::vector<float> planes;
       thread_local std::vector<int> indices;
-      planes.resize(static_cast<std::size_t>(count) * CrossViewPlaneCount);
+      planes.resize(static_cast<std::size_t>(count) * crossview::PlaneCount);
       indices.resize(static_cast<std::size_t>(count) * 3);
       const auto plane = [&](int index) { return planes.data() + index * count; };
-      const StoredSurfacePlanes otherNow(plane(OtherNow), count);
-      const StoredSurfacePlanes previousOwn(plane(PreviousOwn), count);
-      const StoredSurfacePlanes previousOther(plane(PreviousOther), count);
       int* __restrict otherNowIndex = indices.data();
       int* __restrict previousOwnIndex = indices.data() + count;
       int* __restrict previousOtherIndex = indices.data() + 2 * count;
-      float* __restrict otherNowTaken = plane(OtherNowTaken);
-      float* __restrict previousOwnTaken = plane(PreviousOwnTaken);
-      float* __restrict previousOtherTaken = plane(PreviousOtherTaken);
-      float* __restrict ownCoverage = plane(OwnCoverage);
-      float* __restrict ownSamples = plane(OwnSamples);
-      float* __restrict otherCoverage = plane(OtherCoverage);
-      float* __restrict otherSamples = plane(OtherSamples);
-      // Until a lookup runs: no sample, pixel 0, coverages that are not compared.
+      float* __restrict otherNowTaken = plane(crossview::OtherNowTaken);
+      float* __restrict previousOwnTaken = plane(crossview::PreviousOwnTaken);
+      float* __restrict previousOtherTaken = plane(crossview::PreviousOtherTaken);
+      float* __restrict otherNowZeta = plane(crossview::OtherNowZeta);
+      float* __restrict previousOwnZeta = plane(crossview::PreviousOwnZeta);
+      float* __restrict previousOtherZeta = plane(crossview::PreviousOtherZeta);
+      // Until a lookup runs: no sample, pixel 0.
       std::fill_n(otherNowTaken, 3 * count, 0.0f);
       std::fill_n(indices.data(), 3 * count, 0);
-      std::fill_n(ownCoverage, count, 0.0f);
-      std::fill_n(ownSamples, count, 1.0f);
-      std::fill_n(otherCoverage, count, 0.0f);
-      std::fill_n(otherSamples, count, 1.0f);
-      // The pixel's own surface from the surface planes, which hold it for every pixel that
-      // sees one (seen).
       const float* __restrict seen = eye.surface.valid.data() + row;
-      const float* __restrict albedoRed = eye.surface.albedo[0].data() + row;
-      const float* __restrict albedoGreen = eye.surface.albedo[1].data() + row;
-      const float* __restrict albedoBlue = eye.surface.albedo[2].data() + row;
-      const float* __restrict normalX = eye.surface.normal[0].data() + row;
-      const float* __restrict normalY = eye.surface.normal[1].data() + row;
-      const float* __restrict normalZ = eye.surface.normal[2].data() + row;
-      const float* __restrict gradientMagnitude = eye.surface.gradientMagnitude.data() + row;
-      const float* __restrict depthSpread = eye.surface.depthSpread.data() + row;
       const ExpectedSurfaceRow ownSurface = expectedSurfaceOf(eye.surface, row, p);
-      if (p.crossViewSamples && usePreviousFrame && eye.hasPrevious)
+      const float* const ownAlbedo[3] = { eye.surface.albedo[0].data() + row,
+        eye.surface.albedo[1].data() + row, eye.surface.albedo[2].data() + row };
+      const EdgeStopping crossView = p.crossView;
+      const bool lookUpPreviousOwn = p.crossViewSamples && usePreviousFrame && eye.hasPrevious;
+      const bool lookUpPreviousOther = lookUpPreviousOwn && stereo && other.hasPrevious;
+      if (lookUpPreviousOwn)
       {
-        // k_L^{t-1}, then k_R^{t-1} through the point stored there.
-        lookUpNearestRow(eye.previousSurface, previousPixelX, previousPixelY, previousOnScreen,
-          seen, previousDepth, ownSurface, count, width, previousOwnIndex, previousOwnTaken,
-          previousOwn);
-        if (stereo && other.hasPrevious)
+        // k_L^{t-1}, then k_R^{t-1} through the point stored there, tested against the surface
+        // stored there, whose point it is.
+        const crossview::KeptSurfacePlanes kept(plane(crossview::PreviousOwnKept), count);
+        const auto lookUpPreviousOwnRow = [&](auto keep) HV_ALWAYS_INLINE
         {
-          const StoredSurfaces storedSurfaces(eye.previousSurface);
-          float* __restrict storedX = plane(PreviousOwnPosition);
-          float* __restrict storedY = plane(PreviousOwnPosition + 1);
-          float* __restrict storedZ = plane(PreviousOwnPosition + 2);
-#pragma GCC ivdep
-          for (int k = 0; k < count; ++k)
-          {
-            const int q = previousOwnIndex[k];
-            storedX[k] = storedSurfaces.pointX[q];
-            storedY[k] = storedSurfaces.pointY[q];
-            storedZ[k] = storedSurfaces.pointZ[q];
-          }
-          float* __restrict otherPreviousPixelX = plane(PreviousOtherPixel);
-          float* __restrict otherPreviousPixelY = plane(PreviousOtherPixel + 1);
-          float* __restrict otherPreviousDepth = plane(PreviousOtherDepth);
-          float* __restrict otherPreviousOnScreen = plane(PreviousOtherOnScreen);
+          lookUpNearestRow<decltype(keep)::value>(eye.previousSurface, previousPixelX,
+            previousPixelY, previousOnScreen, seen, previousDepth, ownSurface, ownSurface,
+            ownAlbedo, crossView, count, width, previousOwnIndex, previousOwnTaken, previousOwnZeta,
+            kept);
+        };
+        lookUpPreviousOther ? lookUpPreviousOwnRow(std::true_type())
+                            : lookUpPreviousOwnRow(std::false_type());
+        if (lookUpPreviousOther)
+        {
+          float* __restrict otherPreviousPixelX = plane(crossview::PreviousOtherPixel);
+          float* __restrict otherPreviousPixelY = plane(crossview::PreviousOtherPixel + 1);
+          float* __restrict otherPreviousDepth = plane(crossview::PreviousOtherDepth);
+          float* __restrict otherPreviousOnScreen = plane(crossview::PreviousOtherOnScreen);
+          const float* __restrict storedX = kept.pointX;
+          const float* __restrict storedY = kept.pointY;
+          const float* __restrict storedZ = kept.pointZ;
           const glm::mat4 otherPreviousViewProjection = other.previousViewProjection;
           const glm::mat4 otherPreviousView = other.previousView;
 #pragma GCC ivdep
@@ -1806,87 +1810,43 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
             otherPreviousDepth[k] = depth;
             otherPreviousOnScreen[k] = onScreen ? 1.0f : 0.0f;
           }
-          // Looked up where k_L^{t-1} was taken, and tested against the surface stored there,
-          // whose point it is.
-          const ExpectedSurfaceRow previousOwnSurface = { previousOwn.normalX, previousOwn.normalY,
-            previousOwn.normalZ, previousOwn.gradientMagnitude, previousOwn.depthSpread,
-            p.depthTolerance, p.normalCosine, p.normalTestGradient };
-          lookUpNearestRow(other.previousSurface, otherPreviousPixelX, otherPreviousPixelY,
-            otherPreviousOnScreen, previousOwnTaken, otherPreviousDepth, previousOwnSurface, count,
-            width, previousOtherIndex, previousOtherTaken, previousOther);
-          if (p.crossViewCoverageWidth > 0.0f)
-          {
-            const float* __restrict ownHistory = reinterpret_cast<const float*>(eye.history.data());
-            const float* __restrict otherHistory =
-              reinterpret_cast<const float*>(other.history.data());
-            const float* __restrict ownInfo =
-              reinterpret_cast<const float*>(eye.historyInfo.data());
-            const float* __restrict otherInfo =
-              reinterpret_cast<const float*>(other.historyInfo.data());
-            constexpr int InfoFloats = sizeof(HistoryInfo) / sizeof(float);
-            constexpr int StoredSampleCount = offsetof(HistoryInfo, sampleCount) / sizeof(float);
-#pragma GCC ivdep
-            for (int k = 0; k < count; ++k)
-            {
-              const int q = previousOwnIndex[k];
-              const int r = previousOtherIndex[k];
-              // Products with `compared` (1 or 0) rather than selects, exact either way: with
-              // a select GCC loads the indices only where compared, a masked gather it does
-              // not emulate.
-              const float compared = previousOtherTaken[k];
-              ownCoverage[k] = compared * ownHistory[4 * q + 3];
-              ownSamples[k] =
-                compared * ownInfo[InfoFloats * q + StoredSampleCount] + (1.0f - compared);
-              otherCoverage[k] = compared * otherHistory[4 * r + 3];
-              otherSamples[k] =
-                compared * otherInfo[InfoFloats * r + StoredSampleCount] + (1.0f - compared);
-            }
-          }
+          const ExpectedSurfaceRow previousOwnSurface = { kept.normalX, kept.normalY, kept.normalZ,
+            kept.gradientMagnitude, kept.depthSpread, p.depthTolerance, p.normalCosine,
+            p.normalTestGradient };
+          lookUpNearestRow<false>(other.previousSurface, otherPreviousPixelX, otherPreviousPixelY,
+            otherPreviousOnScreen, previousOwnTaken, otherPreviousDepth, previousOwnSurface,
+            ownSurface, ownAlbedo, crossView, count, width, previousOtherIndex, previousOtherTaken,
+            previousOtherZeta, kept);
         }
       }
       if (p.crossViewSamples && stereo)
       {
-        lookUpNearestRow(other.surface, otherPixelX, otherPixelY, otherOnScreen, seen, otherDepth,
-          ownSurface, count, width, otherNowIndex, otherNowTaken, otherNow);
+        lookUpNearestRow<false>(other.surface, otherPixelX, otherPixelY, otherOnScreen, seen,
+          otherDepth, ownSurface, ownSurface, ownAlbedo, crossView, count, width, otherNowIndex,
+          otherNowTaken, otherNowZeta, crossview::KeptSurfacePlanes(nullptr, 0));
       }
 
-      float* __restrict weightOtherNow = plane(WeightOtherNow);
-      float* __restrict weightPreviousOwn = plane(WeightPreviousOwn);
-      float* __restrict weightPreviousOther = plane(WeightPreviousOther);
-      const EdgeStopping crossView = p.crossView;
+      // The other eye's samples carry its coverage. At the silhouette the eyes' parallax makes
+      // that coverage differ from this pixel's by more than noise (the right eye sees further
+      // round the right side), and they would bias the edge: they count only as far as the two
+      // eyes' accumulated coverages at the point agree (crossViewCoverage), compared where
+      // k_R^{t-1} was taken. Elsewhere the coverages are equal, whose term is e^-0, exactly 1:
+      // a choice between the term and 1 would keep GCC from vectorising the loop (it moves the
+      // term's arithmetic into the branch).
+      const float compareCoverages =
+        lookUpPreviousOther && p.crossViewCoverageWidth > 0.0f ? 1.0f : 0.0f;
       const float coverageWidth = p.crossViewCoverageWidth;
       const float previousFrameGate = gate;
-#pragma GCC ivdep
-      for (int k = 0; k < count; ++k)
-      {
-        Surface s;
-        s.albedo = glm::vec3(albedoRed[k], albedoGreen[k], albedoBlue[k]);
-        s.normal = glm::vec3(normalX[k], normalY[k], normalZ[k]);
-        s.gradientMagnitude = gradientMagnitude[k];
-        s.depthSpread = depthSpread[k];
-        // The other eye's samples carry its coverage. At the silhouette the eyes' parallax
-        // makes that coverage differ from this pixel's by more than noise (the right eye sees
-        // further round the right side), and they would bias the edge: they count only as far
-        // as the two eyes' accumulated coverages at the point agree (crossViewCoverage).
-        // Where they are not compared the planes hold equal coverages, whose term is e^-0,
-        // exactly 1: a choice between the term and 1 would keep GCC from vectorising the loop
-        // (it moves the term's arithmetic into the branch).
-        const float otherEyeWeight = crossViewCoverageTerm(
-          ownCoverage[k], ownSamples[k], otherCoverage[k], otherSamples[k], coverageWidth);
-        weightOtherNow[k] = otherEyeWeight *
-          bilateralWeight(asSeenFrom(s, otherNow.seenDepth[k]), otherNow.at(k), crossView);
-        weightPreviousOwn[k] = previousFrameGate *
-          bilateralWeight(asSeenFrom(s, previousOwn.seenDepth[k]), previousOwn.at(k), crossView);
-        weightPreviousOther[k] = previousFrameGate * otherEyeWeight *
-          bilateralWeight(
-            asSeenFrom(s, previousOther.seenDepth[k]), previousOther.at(k), crossView);
-      }
-
-      // The sum in the order of Eq. 2's samples. The previous frame's samples count only
-      // while the light is the same (gate > 0); with gate 0 their weights are exactly 0.
-      const float* __restrict ownRaw = reinterpret_cast<const float*>(eye.raw.data() + row);
       // A single eye has no other eye's buffers: its own stand in, at weight 0.
       const EyeState& otherOrOwn = stereo ? other : eye;
+      const float* __restrict ownHistory = reinterpret_cast<const float*>(eye.history.data());
+      const float* __restrict otherHistory =
+        reinterpret_cast<const float*>(otherOrOwn.history.data());
+      const float* __restrict ownInfo = reinterpret_cast<const float*>(eye.historyInfo.data());
+      const float* __restrict otherInfo =
+        reinterpret_cast<const float*>(otherOrOwn.historyInfo.data());
+      constexpr int StoredSampleCount = offsetof(HistoryInfo, sampleCount) / sizeof(float);
+      const float* __restrict ownRaw = reinterpret_cast<const float*>(eye.raw.data() + row);
       const float* __restrict otherRaw = reinterpret_cast<const float*>(otherOrOwn.raw.data());
       const float* __restrict ownPreviousRaw =
         reinterpret_cast<const float*>(eye.previousRaw.data());
@@ -1900,12 +1860,30 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
 #pragma GCC ivdep
       for (int k = 0; k < count; ++k)
       {
-        const float weightA = otherNowTaken[k] > 0.0f ? weightOtherNow[k] : 0.0f;
-        const float weightB = previousOwnTaken[k] > 0.0f ? weightPreviousOwn[k] : 0.0f;
-        const float weightC = previousOtherTaken[k] > 0.0f ? weightPreviousOther[k] : 0.0f;
+        const int q = previousOwnIndex[k];
+        const int r = previousOtherIndex[k];
+        // Products with `compared` (1 or 0) rather than selects, exact either way: with a
+        // select GCC loads the coverages only where compared, a masked gather it does not
+        // emulate.
+        const float compared = compareCoverages * previousOtherTaken[k];
+        const float otherEyeWeight = crossViewCoverageTerm(compared * ownHistory[4 * q + 3],
+          compared * ownInfo[temporal::HistoryInfoFloats * q + StoredSampleCount] +
+            (1.0f - compared),
+          compared * otherHistory[4 * r + 3],
+          compared * otherInfo[temporal::HistoryInfoFloats * r + StoredSampleCount] +
+            (1.0f - compared),
+          coverageWidth);
+        // The sum in the order of Eq. 2's samples. The previous frame's samples count only
+        // while the light is the same (gate > 0); with gate 0 their weights are exactly 0.
+        const float weightA = otherNowTaken[k] > 0.0f ? otherEyeWeight * otherNowZeta[k] : 0.0f;
+        const float weightB =
+          previousOwnTaken[k] > 0.0f ? previousFrameGate * previousOwnZeta[k] : 0.0f;
+        const float weightC = previousOtherTaken[k] > 0.0f
+          ? previousFrameGate * otherEyeWeight * previousOtherZeta[k]
+          : 0.0f;
         const int a = 4 * otherNowIndex[k];
-        const int b = 4 * previousOwnIndex[k];
-        const int c = 4 * previousOtherIndex[k];
+        const int b = 4 * q;
+        const int c = 4 * r;
         const float weightSum = 1.0f + weightA + weightB + weightC;
         glm::vec4 sum(ownRaw[4 * k], ownRaw[4 * k + 1], ownRaw[4 * k + 2], ownRaw[4 * k + 3]);
         sum += weightA * glm::vec4(otherRaw[a], otherRaw[a + 1], otherRaw[a + 2], otherRaw[a + 3]);
@@ -2001,15 +1979,21 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       const std::size_t row = static_cast<std::size_t>(y) * width + begin; // pixel of x = begin
       thread_local std::vector<float> scratch;
       scratch.resize(static_cast<std::size_t>(count) * TemporalPlaneCount);
-      std::fill(scratch.begin(), scratch.end(), 0.0f);
       const auto plane = [&](int index) { return scratch.data() + index * count; };
       const HistoryInfoPlanes previousInfo(plane(PreviousInfo), count);
       const HistoryInfoPlanes blendedInfo(plane(BlendedInfo), count);
-      std::copy_n(eye.surface.valid.data() + row, count, plane(Seen));
       if (useHistory && eye.hasPrevious && !relight)
       {
+        // It writes every plane up to NormalDifferenceSquare; the blending reads the relighting
+        // ratio's only on a relit frame, and writes the rest.
         reprojectHistoryRow(eye, y, begin, count, width, height, p, scratch.data());
       }
+      else
+      {
+        // No history (0 everywhere), or the relit one, which sets it where it has one.
+        std::fill(scratch.begin(), scratch.end(), 0.0f);
+      }
+      std::copy_n(eye.surface.valid.data() + row, count, plane(Seen));
       if (relight)
       {
         for (int k = 0; k < count; ++k)
@@ -2250,24 +2234,50 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         blendRow(No(), No());
       }
 
+      // Into the history's structs (HistoryInfo() where no surface is seen) and the surface
+      // planes, in a loop GCC vectorises (a per-pixel loop with a branch took 1.5-2 ms per
+      // stereo pair); the row's statistics in a loop of their own.
+      float* __restrict nextHistory = reinterpret_cast<float*>(eye.nextHistory.data() + row);
+      float* __restrict nextInfo = reinterpret_cast<float*>(eye.nextHistoryInfo.data() + row);
+      float* __restrict storedDepthJitter = eye.surface.depthJitter.data() + row;
+      float* __restrict storedNormalJitter = eye.surface.normalJitter.data() + row;
+      const float* __restrict blendedLuminanceMean = blendedInfo.luminanceMean;
+      const float* __restrict blendedLuminanceSquareMean = blendedInfo.luminanceSquareMean;
+      const float* __restrict blendedSampleCount = blendedInfo.sampleCount;
+      const float* __restrict blendedFrames = blendedInfo.frames;
+      const float* __restrict blendedDepthDifferenceSquareMean =
+        blendedInfo.depthDifferenceSquareMean;
+      const float* __restrict blendedNormalDifferenceSquareMean =
+        blendedInfo.normalDifferenceSquareMean;
+      const float* __restrict blendedDepthMean = blendedInfo.depthMean;
+#pragma GCC ivdep
+      for (int k = 0; k < count; ++k)
+      {
+        nextHistory[4 * k] = accumulatedRed[k];
+        nextHistory[4 * k + 1] = accumulatedGreen[k];
+        nextHistory[4 * k + 2] = accumulatedBlue[k];
+        nextHistory[4 * k + 3] = accumulatedCoverage[k];
+        const bool surface = seen[k] > 0.0f;
+        float* __restrict info = nextInfo + HistoryInfoFloats * k; // HistoryInfo's fields
+        info[0] = surface ? blendedLuminanceMean[k] : 0.0f;
+        info[1] = surface ? blendedLuminanceSquareMean[k] : 0.0f;
+        info[2] = surface ? blendedSampleCount[k] : 0.0f;
+        info[3] = surface ? blendedFrames[k] : 0.0f;
+        info[4] = surface ? blendedDepthDifferenceSquareMean[k] : 0.0f;
+        info[5] = surface ? blendedNormalDifferenceSquareMean[k] : 0.0f;
+        info[6] = surface ? blendedDepthMean[k] : 0.0f;
+        info[7] = 0.0f;
+        storedDepthJitter[k] = surface ? depthJitter[k] : storedDepthJitter[k];
+        storedNormalJitter[k] = surface ? normalJitter[k] : storedNormalJitter[k];
+      }
       RowStatistics rowStatistics;
       for (int k = 0; k < count; ++k)
       {
-        const std::size_t i = row + k;
-        eye.nextHistory[i] = glm::vec4(
-          accumulatedRed[k], accumulatedGreen[k], accumulatedBlue[k], accumulatedCoverage[k]);
-        if (!(seen[k] > 0.0f))
-        {
-          eye.nextHistoryInfo[i] = HistoryInfo();
-          continue;
-        }
-        const HistoryInfo info = blendedInfo.at(k);
-        eye.nextHistoryInfo[i] = info;
-        eye.surface.depthJitter[i] = depthJitter[k];
-        eye.surface.normalJitter[i] = normalJitter[k];
-        ++rowStatistics.surfaces;
-        rowStatistics.fresh += info.frames <= 1.0f ? 1 : 0;
-        rowStatistics.historyLengthSum += info.frames;
+        const bool surface = seen[k] > 0.0f;
+        const float frames = blendedFrames[k];
+        rowStatistics.surfaces += surface ? 1 : 0;
+        rowStatistics.fresh += surface & (frames <= 1.0f) ? 1 : 0;
+        rowStatistics.historyLengthSum += surface ? frames : 0.0f;
       }
       eye.rowStatistics[static_cast<std::size_t>(y)] = rowStatistics;
     });
