@@ -11,8 +11,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <random>
+#include <string>
 #include <thread>
 
 using namespace hv::denoise;
@@ -826,4 +828,255 @@ TEST(StereoDenoiser, ReplaceLastFrame)
   EXPECT_EQ(frame.outputs[1], copy.outputs[1]);
   EXPECT_EQ(denoiser.historyLength(0, Width / 2, Height / 2),
     reference.historyLength(0, Width / 2, Height / 2));
+}
+
+namespace
+{
+// One eye of a fronto-parallel wall at z = 0 that fills the view, with a per-pixel random
+// surface: the depth off by up to 1 % (so the point x(k) moves along the pixel's ray), the
+// normal tilted by up to 25 degrees, albedo 0.5 +- 0.08 per channel, gradient magnitude in
+// [0.5, 1]. All of it stays within the disocclusion test's tolerances, so every corresponding
+// pixel on the screen is taken, and every term of zeta differs from sample to sample. The
+// radiance is one flat colour, which says which frame and eye a sample came from.
+void renderRandomSurfaceEye(const glm::vec3& cameraPosition, int eye, int width, int height,
+  std::uint32_t seed, const glm::vec3& colour, hvtest::EyeBuffers& out)
+{
+  hvtest::SceneState scene;
+  scene.cameraPosition = cameraPosition;
+  // The eyes 1 apart, converging 5 in front: the wall, 8 away, lies 3 pixels apart in them.
+  scene.interpupillaryDistance = 1.0f;
+  scene.focalDistance = 5.0f;
+  const std::size_t n = static_cast<std::size_t>(width) * height;
+  out.width = width;
+  out.height = height;
+  out.radiance.assign(4 * n, 1.0f);
+  out.reference.assign(4 * n, 1.0f);
+  out.position.resize(3 * n);
+  out.depth.resize(n);
+  out.albedo.resize(3 * n);
+  out.normal.resize(3 * n);
+  out.gradient.resize(n);
+  out.valid.assign(n, 1);
+  hvtest::eyeMatrices(scene, eye, static_cast<float>(width) / height, out.view, out.projection);
+  const glm::mat4 inverse = glm::inverse(out.projection * out.view);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+  for (int y = 0; y < height; ++y)
+  {
+    for (int x = 0; x < width; ++x)
+    {
+      const std::size_t i = static_cast<std::size_t>(y) * width + x;
+      const float wallDepth = -(out.view * glm::vec4(0.0f, 0.0f, 0.0f, 1.0f)).z;
+      out.depth[i] = wallDepth * (1.0f + 0.01f * uniform(rng));
+      glm::vec3 point(0.0f);
+      pointOnPixelRay(inverse, out.view, x, y, width, height, out.depth[i], point);
+      const float tilt = glm::radians(25.0f) * 0.5f * (uniform(rng) + 1.0f);
+      const float azimuth = glm::pi<float>() * uniform(rng);
+      const glm::vec3 normal(
+        std::sin(tilt) * std::cos(azimuth), std::sin(tilt) * std::sin(azimuth), std::cos(tilt));
+      for (int c = 0; c < 3; ++c)
+      {
+        out.position[3 * i + c] = point[c];
+        out.normal[3 * i + c] = normal[c];
+        out.albedo[3 * i + c] = 0.5f + 0.08f * uniform(rng);
+        out.radiance[4 * i + c] = colour[c];
+        out.reference[4 * i + c] = colour[c];
+      }
+      out.gradient[i] = 0.75f + 0.25f * uniform(rng);
+    }
+  }
+}
+
+// The surface the denoiser keeps for pixel i of an eye's frame, as its documentation defines
+// it: the mapper's buffers, and the standard deviation of the depths of the 3x3 neighbourhood.
+Surface keptSurface(const hvtest::EyeBuffers& eye, int x, int y)
+{
+  const std::size_t i = static_cast<std::size_t>(y) * eye.width + x;
+  Surface s;
+  s.depth = eye.depth[i];
+  s.albedo = glm::vec3(eye.albedo[3 * i], eye.albedo[3 * i + 1], eye.albedo[3 * i + 2]);
+  s.normal = glm::vec3(eye.normal[3 * i], eye.normal[3 * i + 1], eye.normal[3 * i + 2]);
+  s.gradientMagnitude = eye.gradient[i];
+  double sum = 0.0, squareSum = 0.0;
+  int count = 0;
+  for (int dy = -1; dy <= 1; ++dy)
+  {
+    for (int dx = -1; dx <= 1; ++dx)
+    {
+      if (x + dx >= 0 && x + dx < eye.width && y + dy >= 0 && y + dy < eye.height)
+      {
+        const double d = eye.depth[static_cast<std::size_t>(y + dy) * eye.width + x + dx];
+        sum += d;
+        squareSum += d * d;
+        ++count;
+      }
+    }
+  }
+  const double mean = sum / count;
+  s.depthSpread = static_cast<float>(std::sqrt(std::max(squareSum / count - mean * mean, 0.0)));
+  return s;
+}
+
+// x(k): the point on the centre ray of pixel (x, y) at the pixel's depth.
+glm::vec3 firstScatterPoint(const hvtest::EyeBuffers& eye, int x, int y)
+{
+  glm::vec3 point(0.0f);
+  pointOnPixelRay(glm::inverse(eye.projection * eye.view), eye.view, x, y, eye.width, eye.height,
+    eye.depth[static_cast<std::size_t>(y) * eye.width + x], point);
+  return point;
+}
+
+// Where a world point falls in an eye: the pixel it lies in and its view depth. False off the
+// screen, and false where the point lies within 1e-3 pixel of a pixel border, where the test's
+// and the denoiser's rounding could pick different pixels.
+bool correspondingPixel(
+  const hvtest::EyeBuffers& eye, const glm::vec3& point, int& x, int& y, float& depth, bool& clear)
+{
+  glm::vec2 pixel;
+  const bool onScreen =
+    projectToPixel(eye.projection * eye.view, eye.view, eye.width, eye.height, point, pixel, depth);
+  x = static_cast<int>(pixel.x);
+  y = static_cast<int>(pixel.y);
+  const glm::vec2 fraction = pixel - glm::floor(pixel);
+  const float border =
+    std::min(std::min(fraction.x, 1.0f - fraction.x), std::min(fraction.y, 1.0f - fraction.y));
+  clear = border > 1e-3f && pixel.x > 1e-3f && pixel.y > 1e-3f && pixel.x < eye.width - 1e-3f &&
+    pixel.y < eye.height - 1e-3f;
+  return onScreen;
+}
+}
+
+// Eq. 2 sample by sample: each of the three corresponding pixels of k_L^t is the one the
+// equation names, and its weight is zeta between k_L^t's own surface (at the depth its point
+// has in that view) and the surface stored there, times delta(1/(T-1)) for the previous
+// frame's two. The four buffers (both eyes, two frames) carry four colours, so the output of
+// the cross-view stage alone tells each sample's weight apart; the test compares them with
+// weights computed here from the definitions.
+TEST(StereoDenoiser, CrossViewSamplesAreWeightedByZeta)
+{
+  constexpr int width = 48, height = 32;
+  // Frame 1: left (0, 1, 0), right (0, 0, 1); frame 2: left (0, 0, 0), right (1, 0, 0), from a
+  // camera moved by a few pixels (a pixel spans 0.18 on the wall) and towards the wall, so that
+  // the pixels of Eq. 2 are other pixels, and some of them off the screen.
+  hvtest::EyeBuffers previous[2], current[2];
+  const glm::vec3 previousCamera(0.0f, 0.0f, 8.0f), currentCamera(0.517f, -0.389f, 7.83f);
+  renderRandomSurfaceEye(previousCamera, 0, width, height, 11, glm::vec3(0, 1, 0), previous[0]);
+  renderRandomSurfaceEye(previousCamera, 1, width, height, 12, glm::vec3(0, 0, 1), previous[1]);
+  renderRandomSurfaceEye(currentCamera, 0, width, height, 13, glm::vec3(0, 0, 0), current[0]);
+  renderRandomSurfaceEye(currentCamera, 1, width, height, 14, glm::vec3(1, 0, 0), current[1]);
+
+  StereoDenoiser denoiser;
+  DenoiserParameters& p = denoiser.parameters();
+  // The temporal stage runs, for delta(1/(T-1)), but keeps no history: with at most one frame
+  // it blends with alpha 1, which gives the cross-view stage's result exactly.
+  p.maximumHistoryLength = 1;
+  p.spatialFilter = false;
+  p.stereoBlend = false;
+  p.demodulateAlbedo = false;
+  p.crossViewCoverageWidth = 0.0f; // the other eye's samples at full weight
+  std::vector<float> outputs[2];
+  for (std::vector<float>& o : outputs)
+  {
+    o.assign(4 * static_cast<std::size_t>(width) * height, 0.0f);
+  }
+  float* out[2] = { outputs[0].data(), outputs[1].data() };
+  std::string error;
+  const EyeFrame previousFrames[2] = { previous[0].frame(), previous[1].frame() };
+  // T = 0.13 makes delta(1/(T-1)) about 1/2 (sigmoid centre -1.15), so that a sample that
+  // missed it or got it twice would show.
+  const float illuminationDifference = 0.13f;
+  ASSERT_TRUE(denoiser.denoise(previousFrames, 2, illuminationDifference, out, error)) << error;
+  const EyeFrame currentFrames[2] = { current[0].frame(), current[1].frame() };
+  ASSERT_TRUE(denoiser.denoise(currentFrames, 2, illuminationDifference, out, error)) << error;
+  const float gate = denoiser.statistics().temporalGate;
+  ASSERT_GT(gate, 0.3f);
+  ASSERT_LT(gate, 0.7f);
+
+  const EdgeStopping weights = p.crossView;
+  int checked = 0, mismatches = 0, taken[3] = { 0, 0, 0 };
+  std::string firstMismatch;
+  float smallest = 1.0f, largest = 0.0f, largestError = 0.0f;
+  for (int y = 0; y < height; ++y)
+  {
+    for (int x = 0; x < width; ++x)
+    {
+      const std::size_t i = static_cast<std::size_t>(y) * width + x;
+      const Surface own = keptSurface(current[0], x, y);
+      const glm::vec3 point = firstScatterPoint(current[0], x, y);
+      // zeta between the pixel's own surface, at the depth `depth` of its point in the view
+      // of the stored one, and the stored surface.
+      const auto zeta = [&](const Surface& stored, float depth)
+      {
+        Surface seenThere = own;
+        seenThere.depth = depth;
+        return bilateralWeight(seenThere, stored, weights);
+      };
+      bool clear = true, pixelClear;
+      int sx, sy;
+      float depth;
+      // k_R^t = pi_R^t(x(k_L^t))
+      float expectedA = 0.0f;
+      if (correspondingPixel(current[1], point, sx, sy, depth, pixelClear))
+      {
+        expectedA = zeta(keptSurface(current[1], sx, sy), depth);
+        ++taken[0];
+      }
+      clear &= pixelClear;
+      // k_L^{t-1} = pi_L^{t-1}(x(k_L^t)), then k_R^{t-1} = pi_R^{t-1}(x(k_L^{t-1})).
+      float expectedB = 0.0f, expectedC = 0.0f;
+      if (correspondingPixel(previous[0], point, sx, sy, depth, pixelClear))
+      {
+        expectedB = gate * zeta(keptSurface(previous[0], sx, sy), depth);
+        ++taken[1];
+        const glm::vec3 previousPoint = firstScatterPoint(previous[0], sx, sy);
+        clear &= pixelClear;
+        if (correspondingPixel(previous[1], previousPoint, sx, sy, depth, pixelClear))
+        {
+          expectedC = gate * zeta(keptSurface(previous[1], sx, sy), depth);
+          ++taken[2];
+        }
+      }
+      clear &= pixelClear;
+      if (!clear)
+      {
+        continue;
+      }
+      // The output is (0 + wA (1, 0, 0) + wB (0, 1, 0) + wC (0, 0, 1)) / (1 + wA + wB + wC).
+      const float* o = outputs[0].data() + 4 * i;
+      const float weightSum = 1.0f / (1.0f - o[0] - o[1] - o[2]);
+      const float measured[3] = { o[0] * weightSum, o[1] * weightSum, o[2] * weightSum };
+      const float expected[3] = { expectedA, expectedB, expectedC };
+      for (int s = 0; s < 3; ++s)
+      {
+        const float difference = std::abs(measured[s] - expected[s]);
+        if (!(difference <= 2e-3f) && mismatches++ == 0)
+        {
+          static const char* const sampleNames[3] = { "k_R^t", "k_L^{t-1}", "k_R^{t-1}" };
+          firstMismatch = std::string(sampleNames[s]) + " of pixel (" + std::to_string(x) + ", " +
+            std::to_string(y) + "): weight " + std::to_string(measured[s]) + ", expected " +
+            std::to_string(expected[s]);
+        }
+        largestError = std::max(largestError, difference);
+        if (expected[s] > 0.0f)
+        {
+          smallest = std::min(smallest, expected[s]);
+          largest = std::max(largest, expected[s]);
+        }
+      }
+      EXPECT_NEAR(o[3], 1.0f, 1e-5f); // every sample's coverage is 1
+      ++checked;
+    }
+  }
+  EXPECT_EQ(mismatches, 0) << "first: " << firstMismatch;
+  // The check covers most of the image, all three samples, and weights far from 0 and 1.
+  EXPECT_GT(checked, width * height / 2);
+  for (int s = 0; s < 3; ++s)
+  {
+    EXPECT_GT(taken[s], width * height / 2);
+  }
+  EXPECT_LT(smallest, 0.2f);
+  EXPECT_GT(largest, 0.8f);
+  std::printf("cross-view weights of %d pixels (samples on the screen: %d, %d, %d): weights "
+              "from %.3f to %.3f, largest error %.2e\n",
+    checked, taken[0], taken[1], taken[2], smallest, largest, largestError);
 }

@@ -147,6 +147,21 @@ struct StoredSurfaces
     , pointZ(planes.point[2].data())
   {
   }
+
+  // The fields of the surface stored at pixel i that zeta (bilateralWeight) reads. A template
+  // so that each caller keeps its own index type: whether GCC emits gathers for a loop depends
+  // on it (SurfacePlanes).
+  template <typename Index>
+  HV_ALWAYS_INLINE Surface at(Index i) const
+  {
+    Surface s;
+    s.albedo = glm::vec3(this->albedoRed[i], this->albedoGreen[i], this->albedoBlue[i]);
+    s.normal = glm::vec3(this->normalX[i], this->normalY[i], this->normalZ[i]);
+    s.gradientMagnitude = this->gradientMagnitude[i];
+    s.depth = this->depth[i];
+    s.depthSpread = this->depthSpread[i];
+    return s;
+  }
 };
 
 // A pixel's history fetched from the previous frame (bilinear over the taps whose surface is
@@ -861,15 +876,7 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
     current.gradientMagnitude = expected.gradientMagnitude[k];
     current.depth = reprojectedDepth[k];
     current.depthSpread = expected.depthSpread[k];
-    const int stored = bestIndex[k];
-    Surface bestSurface;
-    bestSurface.albedo = glm::vec3(storedSurfaces.albedoRed[stored],
-      storedSurfaces.albedoGreen[stored], storedSurfaces.albedoBlue[stored]);
-    bestSurface.normal = glm::vec3(storedSurfaces.normalX[stored], storedSurfaces.normalY[stored],
-      storedSurfaces.normalZ[stored]);
-    bestSurface.gradientMagnitude = storedSurfaces.gradientMagnitude[stored];
-    bestSurface.depth = storedSurfaces.depth[stored];
-    bestSurface.depthSpread = storedSurfaces.depthSpread[stored];
+    const Surface bestSurface = storedSurfaces.at(bestIndex[k]);
     zeta[k] = historyValid[k] * bilateralWeight(current, bestSurface, edgeStopping);
   }
 
@@ -1015,14 +1022,7 @@ HV_ALWAYS_INLINE inline void lookUpNearestRow(const SurfacePlanes& storedPlanes,
         expected.consistentWith(storedSurfaces, index, depth[k], k)
       ? 1.0f
       : 0.0f;
-    Surface stored;
-    stored.albedo = glm::vec3(storedSurfaces.albedoRed[index], storedSurfaces.albedoGreen[index],
-      storedSurfaces.albedoBlue[index]);
-    stored.normal = glm::vec3(
-      storedSurfaces.normalX[index], storedSurfaces.normalY[index], storedSurfaces.normalZ[index]);
-    stored.gradientMagnitude = storedSurfaces.gradientMagnitude[index];
-    stored.depth = storedSurfaces.depth[index];
-    stored.depthSpread = storedSurfaces.depthSpread[index];
+    const Surface stored = storedSurfaces.at(index);
     // The pixel's own surface, as the view of the stored one sees its point.
     Surface s;
     s.albedo = glm::vec3(albedoRed[k], albedoGreen[k], albedoBlue[k]);
