@@ -46,6 +46,44 @@ namespace denoise
 {
 namespace detail
 {
+// Calls pixel(x, offset, weight) for the pixels x in [0, count) of a row span that starts at
+// column `begin`, for a stencil whose taps lie tapColumn[t] columns (at most `reach`) and
+// tapOffset[t] pixels away with weights tapWeight[t]. The pixels whose taps all lie inside the
+// image's columns come first, in one loop that GCC vectorises (pixel must be inlined and hold
+// no loop); then the few within `reach` of the left and right edges, where a tap outside the
+// image gets weight 0 and the centre pixel's offset, which adds exactly +0 to a sum of finite
+// non-negative terms.
+template <int Taps, typename Pixel>
+HV_ALWAYS_INLINE inline void forStencilOfSpan(int begin, int count, int width, int reach,
+  const int (&tapColumn)[Taps], const std::ptrdiff_t (&tapOffset)[Taps],
+  const float (&tapWeight)[Taps], Pixel& pixel)
+{
+  const int interiorBegin = glm::clamp(reach - begin, 0, count);
+  const int interiorEnd = glm::clamp(width - reach - begin, interiorBegin, count);
+#pragma GCC ivdep
+  for (int x = interiorBegin; x < interiorEnd; ++x)
+  {
+    pixel(x, tapOffset, tapWeight);
+  }
+  const int edgeRanges[2][2] = { { 0, interiorBegin }, { interiorEnd, count } };
+  for (const auto& range : edgeRanges)
+  {
+    for (int x = range[0]; x < range[1]; ++x)
+    {
+      std::ptrdiff_t offset[Taps];
+      float weight[Taps];
+      for (int t = 0; t < Taps; ++t)
+      {
+        const int column = begin + x + tapColumn[t];
+        const bool inside = column >= 0 && column < width;
+        offset[t] = inside ? tapOffset[t] : 0;
+        weight[t] = inside ? tapWeight[t] : 0.0f;
+      }
+      pixel(x, offset, weight);
+    }
+  }
+}
+
 // Radiance (or any RGBA signal) as four planes, so that the wavelet filter's loops over a row
 // of taps read contiguous floats and vectorise.
 struct ColourPlanes

@@ -31,6 +31,7 @@ namespace
 {
 using detail::ColourPlanes;
 using detail::filterWaveletRow;
+using detail::forStencilOfSpan;
 using detail::SurfacePlanes;
 using Clock = std::chrono::steady_clock;
 
@@ -623,32 +624,7 @@ HV_WIDEST_VECTORS NeighbourhoodMoments neighbourhoodMomentsRow(const SurfacePlan
     luminanceSquareSum[x] = sums[9];
     seen[x] = sums[10];
   };
-  // The pixels whose taps all lie inside the image's columns, as vectors; then the pixels at
-  // its left and right edge.
-  const int interiorBegin = glm::clamp(1 - begin, 0, count);
-  const int interiorEnd = glm::clamp(width - 1 - begin, interiorBegin, count);
-#pragma GCC ivdep
-  for (int x = interiorBegin; x < interiorEnd; ++x)
-  {
-    momentsOfPixel(x, tapOffset, tapWeight);
-  }
-  const int edgeRanges[2][2] = { { 0, interiorBegin }, { interiorEnd, count } };
-  for (const auto& range : edgeRanges)
-  {
-    for (int x = range[0]; x < range[1]; ++x)
-    {
-      std::ptrdiff_t offset[9];
-      float weight[9];
-      for (int t = 0; t < 9; ++t)
-      {
-        const int column = begin + x + tapColumn[t];
-        const bool inside = column >= 0 && column < width;
-        offset[t] = inside ? tapOffset[t] : 0;
-        weight[t] = inside ? tapWeight[t] : 0.0f;
-      }
-      momentsOfPixel(x, offset, weight);
-    }
-  }
+  forStencilOfSpan(begin, count, width, 1, tapColumn, tapOffset, tapWeight, momentsOfPixel);
   return moments;
 }
 

@@ -22,33 +22,45 @@ HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide, const Colour
   const int count = end - begin;
   thread_local std::vector<float> scratch;
   scratch.resize(static_cast<std::size_t>(count) * 2);
-  std::fill(scratch.begin(), scratch.end(), 0.0f);
   float* __restrict blurWeight = scratch.data();
   float* __restrict blurredVariance = scratch.data() + count;
   const std::size_t row = static_cast<std::size_t>(y) * width + begin; // pixel of x = begin
 
   const float* __restrict valid = guide.valid.data();
   const float* __restrict variance = inVariance.data();
-  // SVGF's g3x3: the variance blurred over the seen pixels of the 3x3 neighbourhood.
-  for (int dy = -1; dy <= 1; ++dy)
+  // SVGF's g3x3: the variance blurred over the seen pixels of the 3x3 neighbourhood, each
+  // pixel's nine taps in one pass with the sums in registers. They are added in the order of
+  // the rows and then the columns, starting from 0; a tap outside the image has weight 0 and
+  // reads the centre pixel, which adds exactly +0.
   {
-    if (y + dy < 0 || y + dy >= height)
+    std::ptrdiff_t blurOffset[9];
+    float blurKernel[9];
+    int blurColumn[9];
+    for (int dy = -1, t = 0; dy <= 1; ++dy)
     {
-      continue;
-    }
-    for (int dx = -1; dx <= 1; ++dx)
-    {
-      const float k = kernel[dx + 1] * kernel[dy + 1];
-      const int first = glm::max(0, -dx - begin), last = glm::min(count, width - dx - begin);
-      const std::ptrdiff_t offset = static_cast<std::ptrdiff_t>(dy) * width + dx;
-#pragma GCC ivdep
-      for (int x = first; x < last; ++x)
+      const bool rowInside = y + dy >= 0 && y + dy < height;
+      for (int dx = -1; dx <= 1; ++dx, ++t)
       {
-        const std::size_t j = row + x + offset;
-        blurredVariance[x] += k * valid[j] * variance[j];
-        blurWeight[x] += k * valid[j];
+        blurColumn[t] = dx;
+        blurOffset[t] = rowInside ? static_cast<std::ptrdiff_t>(dy) * width + dx : 0;
+        blurKernel[t] = rowInside ? kernel[dx + 1] * kernel[dy + 1] : 0.0f;
       }
     }
+    auto blurPixel = [&](int x, const std::ptrdiff_t(&offset)[9], const float(&k)[9])
+                       HV_ALWAYS_INLINE
+    {
+      const std::size_t i = row + x;
+      float varianceSum = 0.0f, weightSum = 0.0f;
+      for (int t = 0; t < 9; ++t)
+      {
+        const std::size_t j = i + offset[t];
+        varianceSum += k[t] * valid[j] * variance[j];
+        weightSum += k[t] * valid[j];
+      }
+      blurredVariance[x] = varianceSum;
+      blurWeight[x] = weightSum;
+    };
+    forStencilOfSpan(begin, count, width, 1, blurColumn, blurOffset, blurKernel, blurPixel);
   }
 
   const float* __restrict r = in.channel[0].data();
@@ -149,33 +161,8 @@ HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide, const Colour
     filteredVariance[i] = seen * (varianceSum / (weightSum * weightSum));
   };
 
-  // The pixels whose taps all lie inside the image's columns, as vectors.
-  const int interiorBegin = glm::clamp(step - begin, 0, count);
-  const int interiorEnd = glm::clamp(width - step - begin, interiorBegin, count);
-#pragma GCC ivdep
-  for (int x = interiorBegin; x < interiorEnd; ++x)
-  {
-    filterPixel(x, tapOffset, tapKernel);
-  }
-  // The few pixels within `step` of the image's left or right edge. (Not a lambda: a closure
-  // that refers to filterPixel keeps GCC from vectorising the loop above.)
-  const int edgeRanges[2][2] = { { 0, interiorBegin }, { interiorEnd, count } };
-  for (const auto& range : edgeRanges)
-  {
-    for (int x = range[0]; x < range[1]; ++x)
-    {
-      std::ptrdiff_t offset[8];
-      float k[8];
-      for (int t = 0; t < 8; ++t)
-      {
-        const int column = begin + x + tapColumn[t];
-        const bool inside = column >= 0 && column < width;
-        offset[t] = inside ? tapOffset[t] : 0;
-        k[t] = inside ? tapKernel[t] : 0.0f;
-      }
-      filterPixel(x, offset, k);
-    }
-  }
+  // (Not a closure that refers to filterPixel: that keeps GCC from vectorising its loop.)
+  forStencilOfSpan(begin, count, width, step, tapColumn, tapOffset, tapKernel, filterPixel);
 }
 }
 }
