@@ -49,10 +49,10 @@ namespace detail
 // Calls pixel(x, offset, weight) for the pixels x in [0, count) of a row span that starts at
 // column `begin`, for a stencil whose taps lie tapColumn[t] columns (at most `reach`) and
 // tapOffset[t] pixels away with weights tapWeight[t]. The pixels whose taps all lie inside the
-// image's columns come first, in one loop that GCC vectorises (pixel must be inlined and hold
-// no loop); then the few within `reach` of the left and right edges, where a tap outside the
-// image gets weight 0 and the centre pixel's offset, which adds exactly +0 to a sum of finite
-// non-negative terms.
+// image's columns come first, in one loop that GCC vectorises (pixel must be inlined, and a
+// loop inside it one that GCC unrolls fully); then the few within `reach` of the left and right
+// edges, where a tap outside the image gets weight 0 and the centre pixel's offset, which adds
+// exactly +0 to a sum of finite non-negative terms.
 template <int Taps, typename Pixel>
 HV_ALWAYS_INLINE inline void forStencilOfSpan(int begin, int count, int width, int reach,
   const int (&tapColumn)[Taps], const std::ptrdiff_t (&tapOffset)[Taps],

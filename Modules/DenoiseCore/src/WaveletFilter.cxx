@@ -161,7 +161,8 @@ HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide, const Colour
     filteredVariance[i] = seen * (varianceSum / (weightSum * weightSum));
   };
 
-  // (Not a closure that refers to filterPixel: that keeps GCC from vectorising its loop.)
+  // forStencilOfSpan is inlined, so its loop over the pixels vectorises as if written here; a
+  // closure that wraps filterPixel would keep GCC from vectorising it.
   forStencilOfSpan(begin, count, width, step, tapColumn, tapOffset, tapKernel, filterPixel);
 }
 }
