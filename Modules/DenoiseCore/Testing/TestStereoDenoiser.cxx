@@ -861,12 +861,12 @@ void renderRandomSurfaceEye(const glm::vec3& cameraPosition, int eye, int width,
   const glm::mat4 inverse = glm::inverse(out.projection * out.view);
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+  const float wallDepth = -(out.view * glm::vec4(0.0f, 0.0f, 0.0f, 1.0f)).z; // view depth of z = 0
   for (int y = 0; y < height; ++y)
   {
     for (int x = 0; x < width; ++x)
     {
       const std::size_t i = static_cast<std::size_t>(y) * width + x;
-      const float wallDepth = -(out.view * glm::vec4(0.0f, 0.0f, 0.0f, 1.0f)).z;
       out.depth[i] = wallDepth * (1.0f + 0.01f * uniform(rng));
       glm::vec3 point(0.0f);
       pointOnPixelRay(inverse, out.view, x, y, width, height, out.depth[i], point);
