@@ -1080,3 +1080,73 @@ TEST(StereoDenoiser, CrossViewSamplesAreWeightedByZeta)
               "from %.3f to %.3f, largest error %.2e\n",
     checked, taken[0], taken[1], taken[2], smallest, largest, largestError);
 }
+
+// Pixels outside a row's span (no first scatter point in the pixel's 3x3 neighbourhood rows,
+// nor next to one) see no volume: their output is the input radiance, bit for bit, whether D2
+// runs or not and in mono. The outputs start as a value no input holds, so a pixel that no
+// stage writes fails.
+TEST(StereoDenoiser, UnseenPixelsPassThrough)
+{
+  hvtest::SceneState scene;
+  StereoDenoiser stereo, withoutBlend, mono;
+  withoutBlend.parameters().stereoBlend = false;
+  StereoFrame frame;
+  std::vector<float> monoOutput;
+  for (std::uint32_t t = 0; t < 3; ++t)
+  {
+    frame.render(scene, t);
+    const EyeFrame frames[2] = { frame.eyes[0].frame(), frame.eyes[1].frame() };
+    std::vector<float> outputs[2];
+    for (StereoDenoiser* denoiser : { &stereo, &withoutBlend, &mono })
+    {
+      const int eyeCount = denoiser == &mono ? 1 : 2;
+      for (int e = 0; e < eyeCount; ++e)
+      {
+        outputs[e].assign(frame.eyes[e].radiance.size(), -7.0f);
+      }
+      float* out[2] = { outputs[0].data(), outputs[1].data() };
+      std::string error;
+      ASSERT_TRUE(denoiser->denoise(frames, eyeCount, 0.0f, out, error)) << error;
+      for (int e = 0; e < eyeCount; ++e)
+      {
+        const hvtest::EyeBuffers& eye = frame.eyes[e];
+        std::int64_t unseen = 0, passed = 0;
+        for (int y = 0; y < Height; ++y)
+        {
+          // The span: the row's pixels from one left of the first pixel with a scatter point
+          // in rows y-1..y+1 to one right of the last.
+          int first = Width, last = -1;
+          for (int ny = std::max(y - 1, 0); ny <= std::min(y + 1, Height - 1); ++ny)
+          {
+            for (int x = 0; x < Width; ++x)
+            {
+              if (eye.valid[static_cast<std::size_t>(ny) * Width + x])
+              {
+                first = std::min(first, x - 1);
+                last = std::max(last, x + 1);
+              }
+            }
+          }
+          for (int x = 0; x < Width; ++x)
+          {
+            if (x >= first && x <= last)
+            {
+              continue;
+            }
+            ++unseen;
+            const std::size_t i = static_cast<std::size_t>(y) * Width + x;
+            bool same = true;
+            for (int c = 0; c < 4; ++c)
+            {
+              same = same && outputs[e][4 * i + c] == eye.radiance[4 * i + c];
+            }
+            passed += same ? 1 : 0;
+          }
+        }
+        // The scene's volume leaves most of the image empty.
+        EXPECT_GT(unseen, Width * Height / 4) << "eye " << e;
+        EXPECT_EQ(passed, unseen) << "eye " << e << ", frame " << t << ", eyes " << eyeCount;
+      }
+    }
+  }
+}

@@ -19,8 +19,10 @@
 // took 68.5 ms per 1440x936 stereo pair with SSE2, 33.3 with AVX2 and 28.0 with AVX-512, and
 // the other stages, which vectorise little, gain about a tenth (holovolume-denoise-benchmark).
 // The versions compute every pixel alike (built with -ffp-contract=off; no sum runs across
-// pixels), so the evaluation's tables came out identical with the baseline
-// build. The mapper's render loop and LightingCore's pixel loops are cloned the same way.
+// pixels), so the evaluation's tables came out identical with the baseline build. The
+// exception is the wavelet filter, built with FMAs (see CMakeLists.txt): its AVX2 and AVX-512
+// versions agree, and its baseline version differs from them in the last bits. The mapper's
+// render loop and LightingCore's pixel loops are cloned the same way.
 // Clang and other targets get the baseline build.
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
 #define HV_WIDEST_VECTORS                                                                          \

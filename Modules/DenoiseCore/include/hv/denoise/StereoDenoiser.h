@@ -182,8 +182,9 @@ public:
 
   // Denoises one frame of `eyeCount` eyes (1: mono, no stereo samples or D2; 2: left, right)
   // with the illumination difference T of this frame. Writes RGBA per pixel into
-  // outputs[eye] (width x height x 4 floats each). Returns false and explains in `error`,
-  // without touching the history, when the input is unusable. With replaceLastFrame the
+  // outputs[eye] (width x height x 4 floats each, not overlapping any input). Returns false
+  // and explains in `error`, without touching the history, when the input is unusable (after
+  // non-finite radiance the outputs hold a copy of it). With replaceLastFrame the
   // call denoises the last frame again (say, after a parameter change) from the history it
   // started with, instead of counting the same samples twice as a new frame.
   bool denoise(const EyeFrame* eyes, int eyeCount, float illuminationDifference,
