@@ -19,6 +19,8 @@
 #include "vtkVolumeProperty.h"
 #include "vtkXMLImageDataReader.h"
 
+#include <cstdlib>
+#include <iostream>
 #include <string>
 #include <sys/stat.h>
 
@@ -38,6 +40,23 @@ inline bool FileExists(const std::string& path)
 {
   struct stat info;
   return stat(path.c_str(), &info) == 0;
+}
+
+// A command-line option's value as a whole number in [minimum, maximum]. Otherwise false, after
+// telling the user on std::cerr what the option wants (std::atoi would take "abc" for 0).
+inline bool ParseIntegerOption(const char* program, const char* option, const std::string& text,
+  int minimum, int maximum, int& value)
+{
+  char* end = nullptr;
+  const long parsed = std::strtol(text.c_str(), &end, 10);
+  if (text.empty() || *end != '\0' || parsed < minimum || parsed > maximum)
+  {
+    std::cerr << program << ": " << option << " wants a whole number from " << minimum << " to "
+              << maximum << ", not '" << text << "'\n";
+    return false;
+  }
+  value = static_cast<int>(parsed);
+  return true;
 }
 
 // Reads a VTK XML image (.vti) or a NIfTI volume (.nii, .nii.gz); nullptr when nothing was read.

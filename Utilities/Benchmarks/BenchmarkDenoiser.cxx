@@ -99,10 +99,11 @@ int main(int argc, char* argv[])
       threads = std::max(0, std::atoi(value().c_str()));
     else if (arg == "--wavelet-levels")
     {
-      waveletLevels = std::atoi(value().c_str());
-      if (waveletLevels < 0 || waveletLevels > 10)
+      vtkNew<vtkStereoSpatioTemporalDenoiser> limits;
+      if (!holovolume::ParseIntegerOption("holovolume-denoise-benchmark", "--wavelet-levels",
+            value(), limits->GetWaveletLevelsMinValue(), limits->GetWaveletLevelsMaxValue(),
+            waveletLevels))
       {
-        std::cerr << "holovolume-denoise-benchmark: --wavelet-levels wants 0 to 10\n";
         return 2;
       }
     }

@@ -542,10 +542,11 @@ int main(int argc, char* argv[])
       options.SwitchRuns = std::max(1, std::atoi(value().c_str()));
     else if (arg == "--wavelet-levels")
     {
-      options.WaveletLevels = std::atoi(value().c_str());
-      if (options.WaveletLevels < 0 || options.WaveletLevels > 10)
+      vtkNew<vtkStereoSpatioTemporalDenoiser> limits;
+      if (!holovolume::ParseIntegerOption("holovolume-denoise-evaluation", "--wavelet-levels",
+            value(), limits->GetWaveletLevelsMinValue(), limits->GetWaveletLevelsMaxValue(),
+            options.WaveletLevels))
       {
-        std::cerr << "holovolume-denoise-evaluation: --wavelet-levels wants 0 to 10\n";
         return 2;
       }
     }
