@@ -30,14 +30,20 @@ holovolume_install_dependencies() {
     return 0
   fi
   echo "HoloVolume: installing ${missing[*]}"
+  # With recommends, as VTK's CMake package was verified with them.
+  holovolume_apt_install "${missing[@]}"
+}
+
+# apt-get install of the given packages, as root or through sudo, after an apt-get update: on a
+# machine whose package lists are stale or absent the install alone would fail.
+holovolume_apt_install() {
   local sudo=""
   if [ "$(id -u)" -ne 0 ]; then
     command -v sudo >/dev/null || { echo "HoloVolume: run as root or install sudo to install packages" >&2; exit 1; }
     sudo="sudo"
   fi
   $sudo apt-get update -q
-  # With recommends, as VTK's CMake package was verified with them.
-  $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -q "${missing[@]}"
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -q "$@"
 }
 
 # The WebXR player's browser test drives Debian's Chromium with playwright-core and Meta's iwer
@@ -48,9 +54,7 @@ holovolume_install_web_test_tools() {
     return 0
   fi
   if ! command -v npm >/dev/null; then
-    local sudo=""
-    [ "$(id -u)" -ne 0 ] && sudo="sudo"
-    $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -q nodejs npm
+    holovolume_apt_install nodejs npm
   fi
   echo "HoloVolume: installing the WebXR test tools (npm ci in Testing/WebXR)"
   (cd "$dir" && npm ci --no-audit --no-fund --loglevel=error)
