@@ -1091,7 +1091,6 @@ TEST(StereoDenoiser, UnseenPixelsPassThrough)
   StereoDenoiser stereo, withoutBlend, mono;
   withoutBlend.parameters().stereoBlend = false;
   StereoFrame frame;
-  std::vector<float> monoOutput;
   for (std::uint32_t t = 0; t < 3; ++t)
   {
     frame.render(scene, t);
