@@ -47,8 +47,8 @@ tracer's own frame time, in one run.
                        [/usr/share/mricron/templates/ch2.nii.gz, package mricron-data]
   --environment FILE   HDR panorama [blender-data's courtyard.exr]
   --size WxH           per eye [1440x936, HoloLens 2]
-  --frames N           timed frames after two warm-up frames [8]
-  --threads N          vtkSMPTools threads [all cores]
+  --frames N           timed frames after two warm-up frames, 1 to 100000 [8]
+  --threads N          vtkSMPTools threads, 0 (all cores) to 1024 [0]
   --wavelet-levels N   a-trous levels of the denoisers' spatial filter, 0 to 10 [the
                        denoiser's default, 4]; holovolume-denoise-evaluation takes the same
                        option, for the quality they buy
@@ -63,6 +63,7 @@ int main(int argc, char* argv[])
   std::string environmentPath = holovolume::DefaultEnvironment();
   int width = 1440, height = 936, frames = 8, threads = 0;
   int waveletLevels = -1; // the denoiser's default
+  const char* program = "holovolume-denoise-benchmark";
   for (int i = 1; i < argc; ++i)
   {
     const std::string arg = argv[i];
@@ -94,15 +95,24 @@ int main(int argc, char* argv[])
       }
     }
     else if (arg == "--frames")
-      frames = std::max(1, std::atoi(value().c_str()));
+    {
+      if (!holovolume::ParseIntegerOption(program, "--frames", value(), 1, 100000, frames))
+      {
+        return 2;
+      }
+    }
     else if (arg == "--threads")
-      threads = std::max(0, std::atoi(value().c_str()));
+    {
+      if (!holovolume::ParseIntegerOption(program, "--threads", value(), 0, 1024, threads))
+      {
+        return 2;
+      }
+    }
     else if (arg == "--wavelet-levels")
     {
       vtkNew<vtkStereoSpatioTemporalDenoiser> limits;
-      if (!holovolume::ParseIntegerOption("holovolume-denoise-benchmark", "--wavelet-levels",
-            value(), limits->GetWaveletLevelsMinValue(), limits->GetWaveletLevelsMaxValue(),
-            waveletLevels))
+      if (!holovolume::ParseIntegerOption(program, "--wavelet-levels", value(),
+            limits->GetWaveletLevelsMinValue(), limits->GetWaveletLevelsMaxValue(), waveletLevels))
       {
         return 2;
       }

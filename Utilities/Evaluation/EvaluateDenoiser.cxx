@@ -65,13 +65,13 @@ head MRI under a real HDR panorama. Prints a Markdown table per sequence.
   --environment FILE     HDR panorama [blender-data's courtyard.exr]
   --size WxH             per eye [160x104: 1/9 of HoloLens 2 per axis, so that 1024-spp
                          references of every frame take minutes, not hours]
-  --frames N             stereo frames per sequence [60]
-  --reference-spp N      samples per pixel of each frame's reference [1024]; the static
-                         view's reference and the raw-spp curve use 4x this
+  --frames N             stereo frames per sequence, 4 to 100000 [60]
+  --reference-spp N      samples per pixel of each frame's reference, 64 to 1048576 [1024];
+                         the static view's reference and the raw-spp curve use 4x this
   --sequences LIST       any of static,orbit,rotate,switch [all]
   --images DIR           write thumbnail strips (left eye) as PNG into DIR
-  --switch-runs N        repeat the light switch N times with independent random numbers
-                         [4]: one 2-spp frame's PSNR varies by a few tenths of a dB, as much
+  --switch-runs N        repeat the light switch N times with independent random numbers,
+                         1 to 1000 [4]: one 2-spp frame's PSNR varies by a few tenths of a dB, as much
                          as the recovery criterion's margin; its figures are means over runs
   --wavelet-levels N     a-trous levels of every denoiser's spatial filter, 0 to 10 [the
                          denoiser's default, 4]: its quality against its cost, which
@@ -500,6 +500,7 @@ vtkSmartPointer<vtkImageData> Rotated(vtkImageData* base, int columns)
 int main(int argc, char* argv[])
 {
   Options options;
+  const char* program = "holovolume-denoise-evaluation";
   for (int i = 1; i < argc; ++i)
   {
     const std::string arg = argv[i];
@@ -531,20 +532,37 @@ int main(int argc, char* argv[])
       }
     }
     else if (arg == "--frames")
-      options.Frames = std::max(4, std::atoi(value().c_str()));
+    {
+      if (!holovolume::ParseIntegerOption(program, "--frames", value(), 4, 100000, options.Frames))
+      {
+        return 2;
+      }
+    }
     else if (arg == "--reference-spp")
-      options.ReferenceSamples = std::max(64, std::atoi(value().c_str()));
+    {
+      if (!holovolume::ParseIntegerOption(
+            program, "--reference-spp", value(), 64, 1 << 20, options.ReferenceSamples))
+      {
+        return 2;
+      }
+    }
     else if (arg == "--sequences")
       options.Sequences = value();
     else if (arg == "--images")
       options.Images = value();
     else if (arg == "--switch-runs")
-      options.SwitchRuns = std::max(1, std::atoi(value().c_str()));
+    {
+      if (!holovolume::ParseIntegerOption(
+            program, "--switch-runs", value(), 1, 1000, options.SwitchRuns))
+      {
+        return 2;
+      }
+    }
     else if (arg == "--wavelet-levels")
     {
       vtkNew<vtkStereoSpatioTemporalDenoiser> limits;
-      if (!holovolume::ParseIntegerOption("holovolume-denoise-evaluation", "--wavelet-levels",
-            value(), limits->GetWaveletLevelsMinValue(), limits->GetWaveletLevelsMaxValue(),
+      if (!holovolume::ParseIntegerOption(program, "--wavelet-levels", value(),
+            limits->GetWaveletLevelsMinValue(), limits->GetWaveletLevelsMaxValue(),
             options.WaveletLevels))
       {
         return 2;
