@@ -944,15 +944,18 @@ bool correspondingPixel(
     pixel.y < eye.height - 1e-3f;
   return onScreen;
 }
-}
 
 // Eq. 2 sample by sample: each of the three corresponding pixels of k_L^t is the one the
 // equation names, and its weight is zeta between k_L^t's own surface (at the depth its point
 // has in that view) and the surface stored there, times delta(1/(T-1)) for the previous
-// frame's two. The four buffers (both eyes, two frames) carry four colours, so the output of
-// the cross-view stage alone tells each sample's weight apart; the test compares them with
-// weights computed here from the definitions.
-TEST(StereoDenoiser, CrossViewSamplesAreWeightedByZeta)
+// frame's two, and for the other eye's two (k_R^t, k_R^{t-1}) the agreement of the eyes'
+// accumulated coverages at k_L^{t-1} and k_R^{t-1} (crossViewCoverage) when
+// crossViewCoverageWidth > 0. The four buffers (both eyes, two frames) carry four colours, so
+// the output of the cross-view stage alone tells each sample's weight apart; the check compares
+// them with weights computed here from the definitions. With a coverage width, the first
+// frame's coverage (radiance alpha) is random in each eye, so that the eyes' accumulated
+// coverages differ from pixel to pixel; it returns the coverage terms of the pixels checked.
+std::vector<float> checkCrossViewSampleWeights(float crossViewCoverageWidth)
 {
   constexpr int width = 48, height = 32;
   // Frame 1: left (0, 1, 0), right (0, 0, 1); frame 2: left (0, 0, 0), right (1, 0, 0), from a
@@ -964,16 +967,35 @@ TEST(StereoDenoiser, CrossViewSamplesAreWeightedByZeta)
   renderRandomSurfaceEye(previousCamera, 1, width, height, 12, glm::vec3(0, 0, 1), previous[1]);
   renderRandomSurfaceEye(currentCamera, 0, width, height, 13, glm::vec3(0, 0, 0), current[0]);
   renderRandomSurfaceEye(currentCamera, 1, width, height, 14, glm::vec3(1, 0, 0), current[1]);
+  if (crossViewCoverageWidth > 0.0f)
+  {
+    // As at a silhouette, where one eye sees round the edge: the left eye mostly covered, the
+    // right one mostly not. How much each eye's sample mixed the other's coverage into its
+    // history varies with zeta, so the histories' coverages agree at some pixels and not at
+    // others.
+    std::mt19937 rng(15);
+    const float lowest[2] = { 0.9f, 0.0f };
+    for (int e = 0; e < 2; ++e)
+    {
+      std::uniform_real_distribution<float> coverage(lowest[e], lowest[e] + 0.1f);
+      for (std::size_t i = 3; i < previous[e].radiance.size(); i += 4)
+      {
+        previous[e].radiance[i] = coverage(rng);
+      }
+    }
+  }
 
   StereoDenoiser denoiser;
   DenoiserParameters& p = denoiser.parameters();
   // The temporal stage runs, for delta(1/(T-1)), but keeps no history: with at most one frame
-  // it blends with alpha 1, which gives the cross-view stage's result exactly.
+  // it blends with alpha 1, which gives the cross-view stage's result exactly. The history it
+  // stores is that result too, whose alpha and weight sum are the accumulated coverage and the
+  // sample count that the coverage agreement of the next frame compares.
   p.maximumHistoryLength = 1;
   p.spatialFilter = false;
   p.stereoBlend = false;
   p.demodulateAlbedo = false;
-  p.crossViewCoverageWidth = 0.0f; // the other eye's samples at full weight
+  p.crossViewCoverageWidth = crossViewCoverageWidth;
   std::vector<float> outputs[2];
   for (std::vector<float>& o : outputs)
   {
@@ -985,17 +1007,19 @@ TEST(StereoDenoiser, CrossViewSamplesAreWeightedByZeta)
   // T = 0.13 makes delta(1/(T-1)) about 1/2 (sigmoid centre -1.15), so that a sample that
   // missed it or got it twice would show.
   const float illuminationDifference = 0.13f;
-  ASSERT_TRUE(denoiser.denoise(previousFrames, 2, illuminationDifference, out, error)) << error;
+  EXPECT_TRUE(denoiser.denoise(previousFrames, 2, illuminationDifference, out, error)) << error;
+  const std::vector<float> previousOutputs[2] = { outputs[0], outputs[1] };
   const EyeFrame currentFrames[2] = { current[0].frame(), current[1].frame() };
-  ASSERT_TRUE(denoiser.denoise(currentFrames, 2, illuminationDifference, out, error)) << error;
+  EXPECT_TRUE(denoiser.denoise(currentFrames, 2, illuminationDifference, out, error)) << error;
   const float gate = denoiser.statistics().temporalGate;
-  ASSERT_GT(gate, 0.3f);
-  ASSERT_LT(gate, 0.7f);
+  EXPECT_GT(gate, 0.3f);
+  EXPECT_LT(gate, 0.7f);
 
   const EdgeStopping weights = p.crossView;
   int checked = 0, mismatches = 0, taken[3] = { 0, 0, 0 };
   std::string firstMismatch;
   float smallest = 1.0f, largest = 0.0f, largestError = 0.0f;
+  std::vector<float> coverageTerms;
   for (int y = 0; y < height; ++y)
   {
     for (int x = 0; x < width; ++x)
@@ -1015,25 +1039,37 @@ TEST(StereoDenoiser, CrossViewSamplesAreWeightedByZeta)
       int sx, sy;
       float depth;
       // k_R^t = pi_R^t(x(k_L^t))
-      float expectedA = 0.0f;
+      float zetaA = 0.0f;
       if (correspondingPixel(current[1], point, sx, sy, depth, pixelClear))
       {
-        expectedA = zeta(keptSurface(current[1], sx, sy), depth);
+        zetaA = zeta(keptSurface(current[1], sx, sy), depth);
         ++taken[0];
       }
       clear &= pixelClear;
       // k_L^{t-1} = pi_L^{t-1}(x(k_L^t)), then k_R^{t-1} = pi_R^{t-1}(x(k_L^{t-1})).
-      float expectedB = 0.0f, expectedC = 0.0f;
+      float expectedB = 0.0f, zetaC = 0.0f, coverageTerm = 1.0f;
+      float previousCoverageB = 0.0f, previousCoverageC = 0.0f;
       if (correspondingPixel(previous[0], point, sx, sy, depth, pixelClear))
       {
         expectedB = gate * zeta(keptSurface(previous[0], sx, sy), depth);
         ++taken[1];
+        const std::size_t q = static_cast<std::size_t>(sy) * width + sx;
+        previousCoverageB = previous[0].radiance[4 * q + 3];
         const glm::vec3 previousPoint = firstScatterPoint(previous[0], sx, sy);
         clear &= pixelClear;
         if (correspondingPixel(previous[1], previousPoint, sx, sy, depth, pixelClear))
         {
-          expectedC = gate * zeta(keptSurface(previous[1], sx, sy), depth);
+          zetaC = gate * zeta(keptSurface(previous[1], sx, sy), depth);
           ++taken[2];
+          const std::size_t r = static_cast<std::size_t>(sy) * width + sx;
+          previousCoverageC = previous[1].radiance[4 * r + 3];
+          // The histories at q and r: the first frame's outputs. Their colours tell the
+          // weight sums, the sample counts they store: the left eye's blue is w / (1 + w),
+          // w the weight of the right eye's sample in it, and the right eye's green likewise.
+          const float* left = previousOutputs[0].data() + 4 * q;
+          const float* right = previousOutputs[1].data() + 4 * r;
+          coverageTerm = crossViewCoverage(left[3], 1.0f / (1.0f - left[2]), right[3],
+            1.0f / (1.0f - right[1]), crossViewCoverageWidth);
         }
       }
       clear &= pixelClear;
@@ -1041,11 +1077,11 @@ TEST(StereoDenoiser, CrossViewSamplesAreWeightedByZeta)
       {
         continue;
       }
+      const float expected[3] = { coverageTerm * zetaA, expectedB, coverageTerm * zetaC };
       // The output is (0 + wA (1, 0, 0) + wB (0, 1, 0) + wC (0, 0, 1)) / (1 + wA + wB + wC).
       const float* o = outputs[0].data() + 4 * i;
       const float weightSum = 1.0f / (1.0f - o[0] - o[1] - o[2]);
       const float measured[3] = { o[0] * weightSum, o[1] * weightSum, o[2] * weightSum };
-      const float expected[3] = { expectedA, expectedB, expectedC };
       for (int s = 0; s < 3; ++s)
       {
         const float difference = std::abs(measured[s] - expected[s]);
@@ -1063,7 +1099,17 @@ TEST(StereoDenoiser, CrossViewSamplesAreWeightedByZeta)
           largest = std::max(largest, expected[s]);
         }
       }
-      EXPECT_NEAR(o[3], 1.0f, 1e-5f); // every sample's coverage is 1
+      // The samples bring their coverage along: 1 in the current frame, the first frame's
+      // where k_L^{t-1} and k_R^{t-1} lie.
+      const float expectedCoverage =
+        (1.0f + expected[0] + expected[1] * previousCoverageB + expected[2] * previousCoverageC) /
+        (1.0f + expected[0] + expected[1] + expected[2]);
+      if (!(std::abs(o[3] - expectedCoverage) <= 1e-3f) && mismatches++ == 0)
+      {
+        firstMismatch = "coverage of pixel (" + std::to_string(x) + ", " + std::to_string(y) +
+          "): " + std::to_string(o[3]) + ", expected " + std::to_string(expectedCoverage);
+      }
+      coverageTerms.push_back(coverageTerm);
       ++checked;
     }
   }
@@ -1079,6 +1125,35 @@ TEST(StereoDenoiser, CrossViewSamplesAreWeightedByZeta)
   std::printf("cross-view weights of %d pixels (samples on the screen: %d, %d, %d): weights "
               "from %.3f to %.3f, largest error %.2e\n",
     checked, taken[0], taken[1], taken[2], smallest, largest, largestError);
+  return coverageTerms;
+}
+}
+
+TEST(StereoDenoiser, CrossViewSamplesAreWeightedByZeta)
+{
+  // No coverage agreement: the other eye's samples count by zeta alone.
+  const std::vector<float> coverageTerms = checkCrossViewSampleWeights(0.0f);
+  EXPECT_EQ(std::count(coverageTerms.begin(), coverageTerms.end(), 1.0f),
+    static_cast<std::ptrdiff_t>(coverageTerms.size()));
+}
+
+// The same check with the coverage agreement at its default width: the other eye's samples
+// are weighted down where the eyes' accumulated coverages disagree by more than their noise.
+// The terms must spread from near 0 to near 1, so that a stage that left them out, or took
+// the coverages from other pixels, would fail the check.
+TEST(StereoDenoiser, CrossViewSamplesAreWeightedByCoverageAgreement)
+{
+  const float defaultWidth = DenoiserParameters().crossViewCoverageWidth;
+  ASSERT_GT(defaultWidth, 0.0f);
+  std::vector<float> coverageTerms = checkCrossViewSampleWeights(defaultWidth);
+  ASSERT_FALSE(coverageTerms.empty());
+  std::sort(coverageTerms.begin(), coverageTerms.end());
+  const std::size_t n = coverageTerms.size();
+  std::printf("coverage agreement terms of %zu pixels: 10th percentile %.3f, median %.3f, 90th "
+              "percentile %.3f\n",
+    n, coverageTerms[n / 10], coverageTerms[n / 2], coverageTerms[9 * n / 10]);
+  EXPECT_LT(coverageTerms[n / 10], 0.3f);
+  EXPECT_GT(coverageTerms[9 * n / 10], 0.8f);
 }
 
 // Pixels outside a row's span (no first scatter point in the pixel's 3x3 neighbourhood rows,
