@@ -1007,10 +1007,19 @@ std::vector<float> checkCrossViewSampleWeights(float crossViewCoverageWidth)
   // T = 0.13 makes delta(1/(T-1)) about 1/2 (sigmoid centre -1.15), so that a sample that
   // missed it or got it twice would show.
   const float illuminationDifference = 0.13f;
-  EXPECT_TRUE(denoiser.denoise(previousFrames, 2, illuminationDifference, out, error)) << error;
+  // (ADD_FAILURE and return: gtest's ASSERT_* return void.)
+  if (!denoiser.denoise(previousFrames, 2, illuminationDifference, out, error))
+  {
+    ADD_FAILURE() << error;
+    return {};
+  }
   const std::vector<float> previousOutputs[2] = { outputs[0], outputs[1] };
   const EyeFrame currentFrames[2] = { current[0].frame(), current[1].frame() };
-  EXPECT_TRUE(denoiser.denoise(currentFrames, 2, illuminationDifference, out, error)) << error;
+  if (!denoiser.denoise(currentFrames, 2, illuminationDifference, out, error))
+  {
+    ADD_FAILURE() << error;
+    return {};
+  }
   const float gate = denoiser.statistics().temporalGate;
   EXPECT_GT(gate, 0.3f);
   EXPECT_LT(gate, 0.7f);
@@ -1133,6 +1142,7 @@ TEST(StereoDenoiser, CrossViewSamplesAreWeightedByZeta)
 {
   // No coverage agreement: the other eye's samples count by zeta alone.
   const std::vector<float> coverageTerms = checkCrossViewSampleWeights(0.0f);
+  ASSERT_FALSE(coverageTerms.empty());
   EXPECT_EQ(std::count(coverageTerms.begin(), coverageTerms.end(), 1.0f),
     static_cast<std::ptrdiff_t>(coverageTerms.size()));
 }
