@@ -52,6 +52,7 @@
 #include <cstring>
 #include <exception>
 #include <iostream>
+#include <limits>
 #include <string>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -184,7 +185,7 @@ Rendering
       --ipd MM               interpupillary distance in volume units (mm) [64]
       --azimuth DEG          camera azimuth around the head (0 = face on) [35]
       --seed N               random seed [0]
-      --threads N            worker threads [all cores]
+      --threads N            worker threads; 0 = all cores [0]
 
 Streaming to a headset (Documentation/Remoting.md)
       --serve                serve the WebXR player and stream both eyes to it, rendered
@@ -263,6 +264,12 @@ bool ParseArguments(int argc, char* argv[], Options& options)
       }
       return argv[++i];
     };
+    // A whole number in [minimum, maximum]: std::atoi took "2x" for 2 and "abc" for 0.
+    auto integer = [&](const char* name, int minimum, int maximum, int& result)
+    {
+      return holovolume::ParseIntegerOption(
+        "holovolume", name, value(name), minimum, maximum, result);
+    };
     if (argument == "-h" || argument == "--help")
     {
       PrintHelp();
@@ -301,15 +308,31 @@ bool ParseArguments(int argc, char* argv[], Options& options)
       }
     }
     else if (argument == "--width")
-      options.Width = std::atoi(value("--width"));
+    {
+      if (!integer("--width", 1, 16384, options.Width))
+        return false;
+    }
     else if (argument == "--height")
-      options.Height = std::atoi(value("--height"));
+    {
+      if (!integer("--height", 1, 16384, options.Height))
+        return false;
+    }
     else if (argument == "--spp")
-      options.SamplesPerPixel = std::atoi(value("--spp"));
+    {
+      if (!integer("--spp", 1, 1 << 20, options.SamplesPerPixel))
+        return false;
+    }
     else if (argument == "--frames")
-      options.Frames = std::atoi(value("--frames"));
+    {
+      if (!integer("--frames", 1, 1000000, options.Frames))
+        return false;
+    }
     else if (argument == "--bounces")
-      options.Bounces = std::atoi(value("--bounces"));
+    {
+      // vtkPathTracedVolumeMapper::SetMaximumBounces clamps to 1-1024.
+      if (!integer("--bounces", 1, 1024, options.Bounces))
+        return false;
+    }
     else if (argument == "--mono")
       options.Stereo = false;
     else if (argument == "--ipd")
@@ -319,7 +342,10 @@ bool ParseArguments(int argc, char* argv[], Options& options)
     else if (argument == "--seed")
       options.Seed = static_cast<unsigned int>(std::strtoul(value("--seed"), nullptr, 10));
     else if (argument == "--threads")
-      options.Threads = std::atoi(value("--threads"));
+    {
+      if (!integer("--threads", 0, 1024, options.Threads))
+        return false;
+    }
     else if (argument == "--exposure")
       options.Exposure = std::atof(value("--exposure"));
     else if (argument == "--tone-mapping")
@@ -335,7 +361,10 @@ bool ParseArguments(int argc, char* argv[], Options& options)
     else if (argument == "--serve")
       options.Serve = true;
     else if (argument == "--port")
-      options.Port = std::atoi(value("--port"));
+    {
+      if (!integer("--port", 0, 65535, options.Port))
+        return false;
+    }
     else if (argument == "--listen")
       options.Listen = value("--listen");
     else if (argument == "--allow-remote")
@@ -363,13 +392,19 @@ bool ParseArguments(int argc, char* argv[], Options& options)
     else if (argument == "--serve-seconds")
       options.ServeSeconds = std::atof(value("--serve-seconds"));
     else if (argument == "--serve-frames")
-      options.ServeFrames = std::atoi(value("--serve-frames"));
+    {
+      if (!integer("--serve-frames", 0, std::numeric_limits<int>::max(), options.ServeFrames))
+        return false;
+    }
     else if (argument == "--web-root")
       options.WebRoot = value("--web-root");
     else if (argument == "--calibration")
       options.Calibration = value("--calibration");
     else if (argument == "--camera-frames")
-      options.CameraFrames = std::atoi(value("--camera-frames"));
+    {
+      if (!integer("--camera-frames", 1, 1000000, options.CameraFrames))
+        return false;
+    }
     else if (argument == "--camera-no-pacing")
       options.CameraPacing = false;
     else if (argument == "--camera-loop")
@@ -390,20 +425,9 @@ bool ParseArguments(int argc, char* argv[], Options& options)
       return false;
     }
   }
-  if (options.Width < 1 || options.Height < 1 || options.SamplesPerPixel < 1 ||
-    options.Frames < 1 || options.Bounces < 1)
-  {
-    std::cerr << "holovolume: width, height, spp, frames and bounces must be positive\n";
-    return false;
-  }
   if (options.Codec != "jpeg" && options.Codec != "h264")
   {
     std::cerr << "holovolume: --codec must be jpeg or h264\n";
-    return false;
-  }
-  if (options.Port < 0 || options.Port > 65535)
-  {
-    std::cerr << "holovolume: --port must be 0-65535\n";
     return false;
   }
   if (options.Serve && !options.Camera.empty())
@@ -428,11 +452,6 @@ bool ParseArguments(int argc, char* argv[], Options& options)
   }
   if (!options.Camera.empty())
   {
-    if (options.CameraFrames < 1)
-    {
-      std::cerr << "holovolume: --camera-frames must be positive\n";
-      return false;
-    }
     if (!(options.ProxyRadius > 0.0))
     {
       std::cerr << "holovolume: --proxy-radius must be positive (millimetres for NIfTI)\n";
