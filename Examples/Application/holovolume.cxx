@@ -264,12 +264,8 @@ bool ParseArguments(int argc, char* argv[], Options& options)
       }
       return argv[++i];
     };
-    // A whole number in [minimum, maximum]: std::atoi took "2x" for 2 and "abc" for 0.
-    auto integer = [&](const char* name, int minimum, int maximum, int& result)
-    {
-      return holovolume::ParseIntegerOption(
-        "holovolume", name, value(name), minimum, maximum, result);
-    };
+    auto integer = [&](const char* name, int minimum, int maximum)
+    { return holovolume::IntegerOption("holovolume", name, value(name), minimum, maximum); };
     if (argument == "-h" || argument == "--help")
     {
       PrintHelp();
@@ -308,30 +304,17 @@ bool ParseArguments(int argc, char* argv[], Options& options)
       }
     }
     else if (argument == "--width")
-    {
-      if (!integer("--width", 1, 16384, options.Width))
-        return false;
-    }
+      options.Width = integer("--width", 1, 16384);
     else if (argument == "--height")
-    {
-      if (!integer("--height", 1, 16384, options.Height))
-        return false;
-    }
+      options.Height = integer("--height", 1, 16384);
     else if (argument == "--spp")
-    {
-      if (!integer("--spp", 1, 1 << 20, options.SamplesPerPixel))
-        return false;
-    }
+      options.SamplesPerPixel = integer("--spp", 1, 1 << 20);
     else if (argument == "--frames")
-    {
-      if (!integer("--frames", 1, 1000000, options.Frames))
-        return false;
-    }
+      options.Frames = integer("--frames", 1, 1000000);
     else if (argument == "--bounces")
     {
       // vtkPathTracedVolumeMapper::SetMaximumBounces clamps to 1-1024.
-      if (!integer("--bounces", 1, 1024, options.Bounces))
-        return false;
+      options.Bounces = integer("--bounces", 1, 1024);
     }
     else if (argument == "--mono")
       options.Stereo = false;
@@ -342,10 +325,7 @@ bool ParseArguments(int argc, char* argv[], Options& options)
     else if (argument == "--seed")
       options.Seed = static_cast<unsigned int>(std::strtoul(value("--seed"), nullptr, 10));
     else if (argument == "--threads")
-    {
-      if (!integer("--threads", 0, 1024, options.Threads))
-        return false;
-    }
+      options.Threads = integer("--threads", 0, 1024);
     else if (argument == "--exposure")
       options.Exposure = std::atof(value("--exposure"));
     else if (argument == "--tone-mapping")
@@ -361,10 +341,7 @@ bool ParseArguments(int argc, char* argv[], Options& options)
     else if (argument == "--serve")
       options.Serve = true;
     else if (argument == "--port")
-    {
-      if (!integer("--port", 0, 65535, options.Port))
-        return false;
-    }
+      options.Port = integer("--port", 0, 65535);
     else if (argument == "--listen")
       options.Listen = value("--listen");
     else if (argument == "--allow-remote")
@@ -392,19 +369,13 @@ bool ParseArguments(int argc, char* argv[], Options& options)
     else if (argument == "--serve-seconds")
       options.ServeSeconds = std::atof(value("--serve-seconds"));
     else if (argument == "--serve-frames")
-    {
-      if (!integer("--serve-frames", 0, std::numeric_limits<int>::max(), options.ServeFrames))
-        return false;
-    }
+      options.ServeFrames = integer("--serve-frames", 0, std::numeric_limits<int>::max());
     else if (argument == "--web-root")
       options.WebRoot = value("--web-root");
     else if (argument == "--calibration")
       options.Calibration = value("--calibration");
     else if (argument == "--camera-frames")
-    {
-      if (!integer("--camera-frames", 1, 1000000, options.CameraFrames))
-        return false;
-    }
+      options.CameraFrames = integer("--camera-frames", 1, 1000000);
     else if (argument == "--camera-no-pacing")
       options.CameraPacing = false;
     else if (argument == "--camera-loop")

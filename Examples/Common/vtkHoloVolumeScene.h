@@ -42,10 +42,11 @@ inline bool FileExists(const std::string& path)
   return stat(path.c_str(), &info) == 0;
 }
 
-// A command-line option's value as a whole number in [minimum, maximum]. Otherwise false, after
-// telling the user on std::cerr what the option wants (std::atoi would take "abc" for 0).
-inline bool ParseIntegerOption(const char* program, const char* option, const std::string& text,
-  int minimum, int maximum, int& value)
+// A command-line option's value as a whole number in [minimum, maximum]. Otherwise the program
+// exits with status 2, after telling the user on std::cerr what the option wants (std::atoi
+// would take "2x" for 2 and "abc" for 0), as it does for an option without a value.
+inline int IntegerOption(
+  const char* program, const char* option, const std::string& text, int minimum, int maximum)
 {
   char* end = nullptr;
   const long parsed = std::strtol(text.c_str(), &end, 10);
@@ -53,10 +54,9 @@ inline bool ParseIntegerOption(const char* program, const char* option, const st
   {
     std::cerr << program << ": " << option << " wants a whole number from " << minimum << " to "
               << maximum << ", not '" << text << "'\n";
-    return false;
+    std::exit(2);
   }
-  value = static_cast<int>(parsed);
-  return true;
+  return static_cast<int>(parsed);
 }
 
 // Reads a VTK XML image (.vti) or a NIfTI volume (.nii, .nii.gz); nullptr when nothing was read.

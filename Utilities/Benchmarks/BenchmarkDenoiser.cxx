@@ -95,27 +95,14 @@ int main(int argc, char* argv[])
       }
     }
     else if (arg == "--frames")
-    {
-      if (!holovolume::ParseIntegerOption(program, "--frames", value(), 1, 100000, frames))
-      {
-        return 2;
-      }
-    }
+      frames = holovolume::IntegerOption(program, "--frames", value(), 1, 100000);
     else if (arg == "--threads")
-    {
-      if (!holovolume::ParseIntegerOption(program, "--threads", value(), 0, 1024, threads))
-      {
-        return 2;
-      }
-    }
+      threads = holovolume::IntegerOption(program, "--threads", value(), 0, 1024);
     else if (arg == "--wavelet-levels")
     {
       vtkNew<vtkStereoSpatioTemporalDenoiser> limits;
-      if (!holovolume::ParseIntegerOption(program, "--wavelet-levels", value(),
-            limits->GetWaveletLevelsMinValue(), limits->GetWaveletLevelsMaxValue(), waveletLevels))
-      {
-        return 2;
-      }
+      waveletLevels = holovolume::IntegerOption(program, "--wavelet-levels", value(),
+        limits->GetWaveletLevelsMinValue(), limits->GetWaveletLevelsMaxValue());
     }
     else
     {

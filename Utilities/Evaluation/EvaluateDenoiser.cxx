@@ -532,41 +532,21 @@ int main(int argc, char* argv[])
       }
     }
     else if (arg == "--frames")
-    {
-      if (!holovolume::ParseIntegerOption(program, "--frames", value(), 4, 100000, options.Frames))
-      {
-        return 2;
-      }
-    }
+      options.Frames = holovolume::IntegerOption(program, "--frames", value(), 4, 100000);
     else if (arg == "--reference-spp")
-    {
-      if (!holovolume::ParseIntegerOption(
-            program, "--reference-spp", value(), 64, 1 << 20, options.ReferenceSamples))
-      {
-        return 2;
-      }
-    }
+      options.ReferenceSamples =
+        holovolume::IntegerOption(program, "--reference-spp", value(), 64, 1 << 20);
     else if (arg == "--sequences")
       options.Sequences = value();
     else if (arg == "--images")
       options.Images = value();
     else if (arg == "--switch-runs")
-    {
-      if (!holovolume::ParseIntegerOption(
-            program, "--switch-runs", value(), 1, 1000, options.SwitchRuns))
-      {
-        return 2;
-      }
-    }
+      options.SwitchRuns = holovolume::IntegerOption(program, "--switch-runs", value(), 1, 1000);
     else if (arg == "--wavelet-levels")
     {
       vtkNew<vtkStereoSpatioTemporalDenoiser> limits;
-      if (!holovolume::ParseIntegerOption(program, "--wavelet-levels", value(),
-            limits->GetWaveletLevelsMinValue(), limits->GetWaveletLevelsMaxValue(),
-            options.WaveletLevels))
-      {
-        return 2;
-      }
+      options.WaveletLevels = holovolume::IntegerOption(program, "--wavelet-levels", value(),
+        limits->GetWaveletLevelsMinValue(), limits->GetWaveletLevelsMaxValue());
     }
     else
     {
