@@ -9,6 +9,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 
 using namespace hv::denoise;
@@ -343,7 +345,40 @@ TEST(DenoiseKernels, InlineExponentialMatchesLibm)
   std::cout << "largest relative error of e^-x on [0, 86]: " << worst << "\n";
   EXPECT_LT(worst, 5e-6);
   EXPECT_EQ(exponentialOfNegative(-2.0f), 1.0f);
+  EXPECT_EQ(exponentialOfNegative(-0.0f), 1.0f);
   EXPECT_GT(exponentialOfNegative(1000.0f), 0.0f); // clamped, not NaN or infinite
+  EXPECT_EQ(
+    exponentialOfNegative(std::numeric_limits<float>::infinity()), exponentialOfNegative(1000.0f));
+  EXPECT_EQ(exponentialOfNegativeBelow86(-2.0f), 1.0f);
+
+  // The clamps compare bit patterns as integers; as float comparisons they give every result
+  // bit for bit the same, from -100 to 100 in steps of 2^-12 (those values' products with
+  // log2(e) cover every rounding case of the clamps and of 2^-t's nearest integer) and at the
+  // extremes. exponentialOfNegativeBelow86 agrees below 86.
+  const auto withFloatClamps = [](float x)
+  { return twoToTheNegative(glm::min(glm::max(x, 0.0f) * 1.44269504f, 125.0f)); };
+  const auto bits = [](float v)
+  {
+    std::uint32_t b;
+    std::memcpy(&b, &v, sizeof(b));
+    return b;
+  };
+  int differing = 0, differingBelow86 = 0;
+  for (int k = -409600; k <= 409600; ++k)
+  {
+    const float x = static_cast<float>(k) / 4096.0f;
+    differing += bits(exponentialOfNegative(x)) != bits(withFloatClamps(x)) ? 1 : 0;
+    differingBelow86 +=
+      x <= 86.0f && bits(exponentialOfNegativeBelow86(x)) != bits(withFloatClamps(x)) ? 1 : 0;
+  }
+  for (const float x : { -std::numeric_limits<float>::max(), -0.0f, 0.0f,
+         std::numeric_limits<float>::denorm_min(), 86.0f, 86.64f, 86.7f, 1e30f,
+         std::numeric_limits<float>::max(), std::numeric_limits<float>::infinity() })
+  {
+    differing += bits(exponentialOfNegative(x)) != bits(withFloatClamps(x)) ? 1 : 0;
+  }
+  EXPECT_EQ(differing, 0);
+  EXPECT_EQ(differingBelow86, 0);
 
   Surface centre;
   centre.kind = SurfaceOwn;
