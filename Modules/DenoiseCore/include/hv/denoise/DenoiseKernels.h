@@ -13,7 +13,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <limits>
 
 namespace hv
 {
@@ -142,8 +141,9 @@ HV_FUNCTION float twoToTheNegative(float t) // t in [0, 125]
 // sign bit set, a negative integer. glm::min and glm::max give the same values, but they are
 // comparisons of floats, and GCC 12 copies the code that follows each of them once for the
 // clamped case (jump threading), which a vectorised loop then merges again with masks. In the
-// wavelet filter's tap loop that took about 100 of its 1107 instructions per 16 pixels; as
-// integers it has 919 (a third fewer in e^-x itself), with every result bit for bit the same.
+// wavelet filter's AVX-512 tap loop these clamps and the weight's cut-off at 30 took some 170
+// of its 1107 instructions per 16 pixels; with the clamps as integers (and fabsf there) it has
+// 902, and every result is bit for bit the same.
 HV_FUNCTION float clampNonNegativeBits(float v, std::int32_t upperBits)
 {
   std::int32_t bits;
@@ -161,18 +161,6 @@ HV_FUNCTION float exponentialOfNegative(float x)
 #else
   constexpr std::int32_t bitsOf125 = 0x42fa0000; // 125.0f: 2^-125 is still a normal float
   return twoToTheNegative(clampNonNegativeBits(x * 1.44269504f, bitsOf125));
-#endif
-}
-
-// exponentialOfNegative for x <= 86, where x log2(e) needs no upper clamp: one integer
-// operation less in the wavelet filter's tap, whose exponent stays below 30.
-HV_FUNCTION float exponentialOfNegativeBelow86(float x)
-{
-#if defined(__CUDA_ARCH__)
-  return __expf(-glm::max(x, 0.0f));
-#else
-  return twoToTheNegative(
-    clampNonNegativeBits(x * 1.44269504f, std::numeric_limits<std::int32_t>::max()));
 #endif
 }
 
@@ -408,14 +396,15 @@ HV_FUNCTION float waveletWeightOfChannels(float centreDepth, float centreSpread,
   const float luminanceTerm = fabsf(centreLuminance - tapLuminance) * luminanceScale;
   // A weight below e^-30 (1e-13) adds nothing a float sum can hold next to the centre tap's
   // 0.25. Zeroing it keeps the weights and their squares (variance propagation) out of the
-  // subnormal range, which is slow on x86 and flushed on GPUs; a dropped weight computes e^-0
-  // (its exponent times 0), which stays normal too. The cut-off is a product with 0 or 1, not
-  // a select of two values: GCC 12 if-converts the select for SSE2 but, for AVX2 and AVX-512,
-  // leaves a branch that keeps the whole wavelet loop scalar (2.2x slower than SSE2). Every
-  // term is at least 0, so the exponent is in [0, 30) where it counts.
+  // subnormal range, which is slow on x86 and flushed on GPUs (e^-x itself stays normal, its
+  // argument clamped at 125 log 2). The cut-off is a product with 0 or 1, not a select of two
+  // values: GCC 12 if-converts the select for SSE2 but, for AVX2 and AVX-512, leaves a branch
+  // that keeps the whole wavelet loop scalar (2.2x slower than SSE2). The exponent is not
+  // clamped at 30 first: that comparison of floats cost the loop as clampNonNegativeBits
+  // explains.
   const float exponent = albedoTerm + normalTerm + depthTerm + luminanceTerm + coverageTerm;
   const float keep = exponent < 30.0f ? 1.0f : 0.0f;
-  return keep * exponentialOfNegativeBelow86(exponent * keep);
+  return keep * exponentialOfNegative(exponent);
 }
 
 HV_FUNCTION float inverseTwoSigmaSquared(float sigma)
