@@ -2219,7 +2219,11 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
 
       // Into the history's structs (HistoryInfo() where no surface is seen) and the surface
       // planes, in a loop GCC vectorises (a per-pixel loop with a branch took 1.5-2 ms per
-      // stereo pair); the row's statistics in a loop of their own.
+      // stereo pair); the row's statistics in a loop of their own. The fields are kept or
+      // cleared by a bit mask: GCC turned `surface ? value : 0` into two conditional stores,
+      // which its vector loop emulated by reading the old structs (memory no cache held, the
+      // stage's hottest load in perf), blending and writing them back; with the mask it only
+      // writes them (temporal stage 0.36 ms faster on the mean of 7 pairs, the same values).
       float* __restrict nextHistory = reinterpret_cast<float*>(eye.nextHistory.data() + row);
       float* __restrict nextInfo = reinterpret_cast<float*>(eye.nextHistoryInfo.data() + row);
       float* __restrict storedDepthJitter = eye.surface.depthJitter.data() + row;
@@ -2241,14 +2245,15 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         nextHistory[4 * k + 2] = accumulatedBlue[k];
         nextHistory[4 * k + 3] = accumulatedCoverage[k];
         const bool surface = seen[k] > 0.0f;
+        const std::uint32_t keep = 0u - static_cast<std::uint32_t>(surface);
         float* __restrict info = nextInfo + HistoryInfoFloats * k; // HistoryInfo's fields
-        info[0] = surface ? blendedLuminanceMean[k] : 0.0f;
-        info[1] = surface ? blendedLuminanceSquareMean[k] : 0.0f;
-        info[2] = surface ? blendedSampleCount[k] : 0.0f;
-        info[3] = surface ? blendedFrames[k] : 0.0f;
-        info[4] = surface ? blendedDepthDifferenceSquareMean[k] : 0.0f;
-        info[5] = surface ? blendedNormalDifferenceSquareMean[k] : 0.0f;
-        info[6] = surface ? blendedDepthMean[k] : 0.0f;
+        info[0] = keptIf(blendedLuminanceMean[k], keep);
+        info[1] = keptIf(blendedLuminanceSquareMean[k], keep);
+        info[2] = keptIf(blendedSampleCount[k], keep);
+        info[3] = keptIf(blendedFrames[k], keep);
+        info[4] = keptIf(blendedDepthDifferenceSquareMean[k], keep);
+        info[5] = keptIf(blendedNormalDifferenceSquareMean[k], keep);
+        info[6] = keptIf(blendedDepthMean[k], keep);
         info[7] = 0.0f;
         storedDepthJitter[k] = surface ? depthJitter[k] : storedDepthJitter[k];
         storedNormalJitter[k] = surface ? normalJitter[k] : storedNormalJitter[k];
