@@ -184,7 +184,7 @@ Rendering
       --mono                 one centred view instead of a stereo pair
       --ipd MM               interpupillary distance in volume units (mm) [64]
       --azimuth DEG          camera azimuth around the head (0 = face on) [35]
-      --seed N               random seed [0]
+      --seed N               random seed, 0 to 2147483647 [0]
       --threads N            worker threads; 0 = all cores [0]
 
 Streaming to a headset (Documentation/Remoting.md)
@@ -323,7 +323,7 @@ bool ParseArguments(int argc, char* argv[], Options& options)
     else if (argument == "--azimuth")
       options.Azimuth = std::atof(value("--azimuth"));
     else if (argument == "--seed")
-      options.Seed = static_cast<unsigned int>(std::strtoul(value("--seed"), nullptr, 10));
+      options.Seed = static_cast<unsigned int>(integer("--seed", 0, 2147483647));
     else if (argument == "--threads")
       options.Threads = integer("--threads", 0, 1024);
     else if (argument == "--exposure")

@@ -19,6 +19,8 @@
 #include "vtkVolumeProperty.h"
 #include "vtkXMLImageDataReader.h"
 
+#include "HoloVolumeOptions.h"
+
 #include <cstdlib>
 #include <iostream>
 #include <string>
@@ -40,23 +42,6 @@ inline bool FileExists(const std::string& path)
 {
   struct stat info;
   return stat(path.c_str(), &info) == 0;
-}
-
-// A command-line option's value as a whole number in [minimum, maximum]. Otherwise the program
-// exits with status 2, after telling the user on std::cerr what the option wants (std::atoi
-// would take "2x" for 2 and "abc" for 0), as it does for an option without a value.
-inline int IntegerOption(
-  const char* program, const char* option, const std::string& text, int minimum, int maximum)
-{
-  char* end = nullptr;
-  const long parsed = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || parsed < minimum || parsed > maximum)
-  {
-    std::cerr << program << ": " << option << " wants a whole number from " << minimum << " to "
-              << maximum << ", not '" << text << "'\n";
-    std::exit(2);
-  }
-  return static_cast<int>(parsed);
 }
 
 // Reads a VTK XML image (.vti) or a NIfTI volume (.nii, .nii.gz); nullptr when nothing was read.

@@ -11,6 +11,8 @@
 #include "hv/lighting/FisheyeCalibration.h"
 #include "hv/lighting/PanoramaFrameGrabber.h"
 
+#include "HoloVolumeOptions.h"
+
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -124,11 +126,15 @@ int main(int argc, char* argv[])
     {
       ++i;
     }
-    else if (option == "--frames" && hasValue && (frames = std::atoi(argv[++i])) > 0)
+    else if (option == "--frames" && hasValue)
     {
+      frames = holovolume::IntegerOption(
+        "holovolume-lighting-benchmark", "--frames", argv[++i], 1, 100000);
     }
-    else if (option == "--threads" && hasValue && (threads = std::atoi(argv[++i])) > 0)
+    else if (option == "--threads" && hasValue)
     {
+      threads =
+        holovolume::IntegerOption("holovolume-lighting-benchmark", "--threads", argv[++i], 1, 1024);
     }
     else
     {

@@ -244,7 +244,8 @@ int main(int argc, char* argv[])
       }
     }
     else if (argument == "--frames" && hasValue)
-      frames = std::max(1, std::atoi(argv[++i]));
+      frames = holovolume::IntegerOption(
+        "holovolume-remoting-benchmark", "--frames", argv[++i], 1, 100000);
     else if (argument == "--no-denoiser")
       denoise = false;
     else if (argument == "--volume" && hasValue)

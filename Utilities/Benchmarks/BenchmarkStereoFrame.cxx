@@ -154,6 +154,7 @@ bool ParseModels(const std::string& list, std::vector<std::string>& models)
 
 bool ParseArguments(int argc, char* argv[], Options& options)
 {
+  const char* program = "holovolume-benchmark";
   for (int i = 1; i < argc; ++i)
   {
     const std::string argument = argv[i];
@@ -176,11 +177,11 @@ bool ParseArguments(int argc, char* argv[], Options& options)
     else if (argument == "--environment")
       options.Environment = value();
     else if (argument == "--width")
-      options.Width = std::atoi(value());
+      options.Width = holovolume::IntegerOption(program, "--width", value(), 1, 16384);
     else if (argument == "--height")
-      options.Height = std::atoi(value());
+      options.Height = holovolume::IntegerOption(program, "--height", value(), 1, 16384);
     else if (argument == "--spp")
-      options.SamplesPerPixel = std::atoi(value());
+      options.SamplesPerPixel = holovolume::IntegerOption(program, "--spp", value(), 1, 1 << 20);
     else if (argument == "--ipd")
       options.InterpupillaryDistance = std::atof(value());
     else if (argument == "--model")
@@ -209,11 +210,12 @@ bool ParseArguments(int argc, char* argv[], Options& options)
       }
     }
     else if (argument == "--noise-frames")
-      options.NoiseFrames = std::atoi(value());
+      options.NoiseFrames =
+        holovolume::IntegerOption(program, "--noise-frames", value(), 0, 100000);
     else if (argument == "--frames")
-      options.Frames = std::atoi(value());
+      options.Frames = holovolume::IntegerOption(program, "--frames", value(), 1, 100000);
     else if (argument == "--threads")
-      options.Threads = std::atoi(value());
+      options.Threads = holovolume::IntegerOption(program, "--threads", value(), 0, 1024);
     else if (argument == "--no-reference")
       options.References = false;
     else if (argument == "--save-images")
@@ -224,12 +226,9 @@ bool ParseArguments(int argc, char* argv[], Options& options)
       return false;
     }
   }
-  if (options.Width < 1 || options.Height < 1 || options.SamplesPerPixel < 1 ||
-    options.Frames < 1 || options.Threads < 0 || options.NoiseFrames < 0 ||
-    options.Roulette.empty())
+  if (options.Roulette.empty())
   {
-    std::cerr << "holovolume-benchmark: width, height, spp and frames must be positive, threads "
-                 "and noise frames >= 0, and --roulette needs a level\n";
+    std::cerr << "holovolume-benchmark: --roulette needs a level\n";
     return false;
   }
   return true;
