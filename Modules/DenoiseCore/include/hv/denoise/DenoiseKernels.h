@@ -111,16 +111,10 @@ HV_FUNCTION bool pointOnPixelRay(const glm::mat4& inverseViewProjection, const g
   return valid;
 }
 
-// e^-x for x >= 0 (negative x count as 0), to a relative error below 4e-6 on [0, 86] (the
-// float product x log2(e) dominates; the series adds less than 2e-7). Written out rather
-// than calling expf because the wavelet filter evaluates it nine times per pixel and level,
-// and only a branch-free inline form lets the compiler vectorise that loop: glibc's vector
-// expf (libmvec) is used only under -ffast-math, which would also reorder the filter's sums.
-// The per-pixel weights (zeta, D2's lambda) use it too: inline, it costs less than a call.
-// e^-x = 2^-t with t = x log2(e) = n + f, n the nearest integer, |f| <= 1/2; 2^-n is built in
-// the exponent bits and 2^-f = e^y, y = -f ln 2, by its Taylor series to y^6 (the remainder
-// is below |y|^7 / 7! < 2e-7 for |y| <= ln(2)/2). Results below 2^-125 are not flushed to 0.
-HV_FUNCTION float twoToTheNegative(float t) // t in [0, 125]
+// 2^-t for t in [0, 125]: t = n + f, n the nearest integer, |f| <= 1/2; 2^-n is built in the
+// exponent bits and 2^-f = e^y, y = -f ln 2, by its Taylor series to y^6 (the remainder is
+// below |y|^7 / 7! < 2e-7 for |y| <= ln(2)/2). Results below 2^-125 are not flushed to 0.
+HV_FUNCTION float twoToTheNegative(float t)
 {
   const int n = static_cast<int>(t + 0.5f); // t >= 0: truncation rounds to nearest
   const float y = (static_cast<float>(n) - t) * 0.693147181f;
@@ -154,6 +148,13 @@ HV_FUNCTION float clampNonNegativeBits(float v, std::int32_t upperBits)
   return clamped;
 }
 
+// e^-x for x >= 0 (negative x count as 0), to a relative error below 4e-6 on [0, 86] (the
+// float product x log2(e) dominates; the series adds less than 2e-7): 2^-t with t = x log2(e)
+// clamped to [0, 125]. Written out rather than calling expf because the wavelet filter
+// evaluates it nine times per pixel and level, and only a branch-free inline form lets the
+// compiler vectorise that loop: glibc's vector expf (libmvec) is used only under -ffast-math,
+// which would also reorder the filter's sums. The per-pixel weights (zeta, D2's lambda) use
+// it too: inline, it costs less than a call.
 HV_FUNCTION float exponentialOfNegative(float x)
 {
 #if defined(__CUDA_ARCH__)
