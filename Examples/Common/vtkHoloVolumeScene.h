@@ -21,8 +21,6 @@
 
 #include "HoloVolumeOptions.h"
 
-#include <cstdlib>
-#include <iostream>
 #include <string>
 #include <sys/stat.h>
 

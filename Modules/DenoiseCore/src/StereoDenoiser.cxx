@@ -696,8 +696,8 @@ enum Plane
   TemporalPlaneCount
 };
 
-// HistoryInfo as an array of floats, so that the history lookup reads it at computed indices.
-// HistoryInfo's floats, the fields in HistoryInfoPlanes' order and then the padding.
+// HistoryInfo as an array of floats (the fields in HistoryInfoPlanes' order, then the
+// padding), so that the history lookup reads it at computed indices.
 constexpr int HistoryInfoFloats = HistoryInfoPlanes::FieldCount + 1;
 static_assert(sizeof(HistoryInfo) == HistoryInfoFloats * sizeof(float),
   "the history lookup reads and the temporal blending writes HistoryInfo as floats");
