@@ -6,7 +6,8 @@
 // view, (b) an orbiting camera, (c) a rotating environment, (d) a lamp switched on halfway
 // (T measured by vtkEnvironmentSyncedLight). Per sequence and method (raw, spatial only,
 // temporal only, D1, D1 + D2): PSNR and SSIM of display values against a per-frame reference,
-// flicker, the inter-eye discrepancy, and for (d) the frames until the PSNR recovers.
+// flicker, the inter-eye discrepancy, and for (d) the frames until the PSNR recovers, against
+// the frame before the lamp and against the same frames with the lamp on all along.
 #include "vtkEnvironmentMapReader.h"
 #include "vtkEnvironmentSyncedLight.h"
 #include "vtkHoloVolumeScene.h"
@@ -32,6 +33,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <string>
@@ -59,7 +61,9 @@ void Usage()
   std::cout << R"(Usage: holovolume-denoise-evaluation [options]
 
 Measures vtkStereoSpatioTemporalDenoiser against converged path-traced references on the real
-head MRI under a real HDR panorama. Prints a Markdown table per sequence.
+head MRI under a real HDR panorama. Prints a Markdown table per sequence. After the light
+switch, the frames to recover are counted against the frame before the lamp and against a
+control: the same frames denoised with a history gathered under the lamp all along.
 
   --volume FILE          [/usr/share/mricron/templates/ch2.nii.gz, package mricron-data]
   --environment FILE     HDR panorama [blender-data's courtyard.exr]
@@ -249,21 +253,30 @@ struct Accumulator
          centredNoiseDiscrepancy = 0.0;
   int frames = 0, flickerFrames = 0;
   std::vector<std::vector<double>> psnrPerRunAndFrame;
+  // The light switch's control: each run's PSNR per frame with the lamp on all along (the same
+  // method on the same 2-spp frames from the switch on, its history gathered under the lamp);
+  // NaN before the switch, where it is not measured.
+  std::vector<std::vector<double>> lampAllAlongPsnrPerRunAndFrame;
   std::vector<float> previous[2];
 };
 
 // Each frame's PSNR, averaged over the runs.
-std::vector<double> MeanPSNRPerFrame(const Accumulator& a)
+std::vector<double> MeanPSNRPerFrame(const std::vector<std::vector<double>>& psnrPerRunAndFrame)
 {
-  std::vector<double> mean(a.psnrPerRunAndFrame.front().size(), 0.0);
-  for (const std::vector<double>& run : a.psnrPerRunAndFrame)
+  std::vector<double> mean(psnrPerRunAndFrame.front().size(), 0.0);
+  for (const std::vector<double>& run : psnrPerRunAndFrame)
   {
     for (std::size_t k = 0; k < mean.size(); ++k)
     {
-      mean[k] += run[k] / static_cast<double>(a.psnrPerRunAndFrame.size());
+      mean[k] += run[k] / static_cast<double>(psnrPerRunAndFrame.size());
     }
   }
   return mean;
+}
+
+std::vector<double> MeanPSNRPerFrame(const Accumulator& a)
+{
+  return MeanPSNRPerFrame(a.psnrPerRunAndFrame);
 }
 
 // Frames after the switch until the PSNR is back within 1 dB of the frame before it; -1 if never.
@@ -273,6 +286,23 @@ int FramesToRecover(const std::vector<double>& psnrPerFrame, int switchFrame)
   for (std::size_t k = switchFrame; k < psnrPerFrame.size(); ++k)
   {
     if (psnrPerFrame[k] >= before - 1.0)
+    {
+      return static_cast<int>(k) - switchFrame;
+    }
+  }
+  return -1;
+}
+
+// Frames after the switch until the PSNR is within 1 dB of the same frame's with the lamp on
+// all along; -1 if never. Against the frame before the lamp, the recovery also counts that the
+// frames under the lamp are harder to denoise (raw 2 spp loses 0.4 dB there on the head MRI);
+// against the control, only what the switch did to the history.
+int FramesToRecoverAgainst(
+  const std::vector<double>& psnrPerFrame, const std::vector<double>& lampAllAlong, int switchFrame)
+{
+  for (std::size_t k = switchFrame; k < psnrPerFrame.size(); ++k)
+  {
+    if (psnrPerFrame[k] >= lampAllAlong[k] - 1.0)
     {
       return static_cast<int>(k) - switchFrame;
     }
@@ -577,21 +607,26 @@ int main(int argc, char* argv[])
   holovolume::EnvironmentToRASWorld(environmentToWorld, 0.0);
 
   // Raw frames (2 spp, a new sample set every frame), the same frames with independent random
-  // numbers (for the noise discrepancy), and references (accumulated).
-  vtkNew<vtkPathTracedVolumeMapper> raw, twin, reference;
-  for (vtkPathTracedVolumeMapper* m : { raw.Get(), twin.Get(), reference.Get() })
+  // numbers (for the noise discrepancy), references (accumulated), and the light switch's frames
+  // before the switch as if the lamp had been on all along (its control).
+  vtkNew<vtkPathTracedVolumeMapper> raw, twin, reference, lampAllAlong;
+  for (vtkPathTracedVolumeMapper* m :
+    { raw.Get(), twin.Get(), reference.Get(), lampAllAlong.Get() })
   {
     m->SetInputData(volumeData);
     m->SetEnvironmentToWorldMatrix(environmentToWorld);
   }
   raw->ProgressiveAccumulationOff();
   twin->ProgressiveAccumulationOff();
+  lampAllAlong->ProgressiveAccumulationOff();
   twin->SetSeed(15485863);
   reference->SetSamplesPerPixel(64);
   reference->SetSeed(7919);
-  vtkNew<vtkVolume> rawVolume, twinVolume, referenceVolume;
+  vtkNew<vtkVolume> rawVolume, twinVolume, referenceVolume, lampAllAlongVolume;
   rawVolume->SetMapper(raw);
   rawVolume->SetProperty(property);
+  lampAllAlongVolume->SetMapper(lampAllAlong);
+  lampAllAlongVolume->SetProperty(property);
   twinVolume->SetMapper(twin);
   twinVolume->SetProperty(property);
   referenceVolume->SetMapper(reference);
@@ -763,8 +798,17 @@ int main(int argc, char* argv[])
     const int runs = sequence == "switch" ? options.SwitchRuns : 1;
     // Over the runs, each pixel's mean error is its bias and its spread the noise: the left
     // eye's display values of D1 and both D2s at a few frames around the switch.
-    const int splitFrames[] = { switchFrame - 1, switchFrame + 2, switchFrame + 8,
-      options.Frames - 1 };
+    // Those of a short sequence that lie beyond its end are left out.
+    std::vector<int> splitFrames;
+    for (int frame : { switchFrame - 1, switchFrame + 2, switchFrame + 8, options.Frames - 1 })
+    {
+      if (frame < options.Frames &&
+        std::find(splitFrames.begin(), splitFrames.end(), frame) == splitFrames.end())
+      {
+        splitFrames.push_back(frame);
+      }
+    }
+    std::sort(splitFrames.begin(), splitFrames.end());
     std::map<std::pair<int, int>, std::vector<std::vector<float>>> splitDisplays; // [method, frame]
     std::map<int, std::vector<float>> splitReferences;
     // The references' random numbers too depend on the sequence alone (the static view's was
@@ -783,8 +827,15 @@ int main(int argc, char* argv[])
       raw->SetFrameIndex(0);
       twin->SetSeed(static_cast<vtkTypeUInt32>(15485863 + repetition));
       twin->SetFrameIndex(0);
-      // [run][method]: run 1 denoises the twin frames.
-      vtkNew<vtkStereoSpatioTemporalDenoiser> denoisers[2][MethodCount];
+      // The control's frames before the switch have the raw frames' random numbers; from the
+      // switch on it denoises the raw frames themselves.
+      lampAllAlong->SetSeed(static_cast<vtkTypeUInt32>(repetition));
+      lampAllAlong->SetFrameIndex(0);
+      lampAllAlong->SetEnvironmentMapData(lampOn);
+      // [run][method]: run 1 denoises the twin frames, run 2 (the light switch only) those with
+      // the lamp on all along.
+      const bool control = sequence == "switch";
+      vtkNew<vtkStereoSpatioTemporalDenoiser> denoisers[3][MethodCount];
       for (auto& run : denoisers)
       {
         run[1]->CrossViewSamplesOff();
@@ -803,15 +854,23 @@ int main(int argc, char* argv[])
           run[method]->SetWaveletLevels(options.WaveletLevels);
         }
       }
-      vtkNew<vtkEnvironmentSyncedLight> light;
-      light->SetInputDynamicRange(vtkEnvironmentSyncedLight::HIGH_DYNAMIC_RANGE);
-      light->SetOutputHeight(64);
-      light->TemporalSmoothingOff();
+      vtkNew<vtkEnvironmentSyncedLight> light, lampAllAlongLight;
+      for (vtkEnvironmentSyncedLight* l : { light.Get(), lampAllAlongLight.Get() })
+      {
+        l->SetInputDynamicRange(vtkEnvironmentSyncedLight::HIGH_DYNAMIC_RANGE);
+        l->SetOutputHeight(64);
+        l->TemporalSmoothingOff();
+      }
       for (Accumulator& a : results)
       {
         a.previous[0].clear();
         a.previous[1].clear();
         a.psnrPerRunAndFrame.emplace_back();
+        if (control)
+        {
+          a.lampAllAlongPsnrPerRunAndFrame.emplace_back(
+            options.Frames, std::numeric_limits<double>::quiet_NaN());
+        }
       }
       for (int frame = 0; frame < options.Frames; ++frame)
       {
@@ -835,17 +894,23 @@ int main(int argc, char* argv[])
         raw->SetEnvironmentMapData(environment);
         twin->SetEnvironmentMapData(environment);
         // Each frame is a new camera frame for the synced light, even when the room is the same.
-        vtkNew<vtkImageData> cameraFrame;
-        cameraFrame->ShallowCopy(environment);
-        vtkNew<vtkFieldData> fields;
-        vtkNew<vtkIntArray> frameIndex;
-        frameIndex->SetName("FrameIndex");
-        frameIndex->InsertNextValue(frame);
-        fields->AddArray(frameIndex);
-        cameraFrame->SetFieldData(fields);
-        light->SetInputData(cameraFrame);
-        light->Update();
-        const double t = light->GetIlluminationDifference();
+        auto illuminationDifference = [frame](vtkEnvironmentSyncedLight* synced, vtkImageData* room)
+        {
+          vtkNew<vtkImageData> cameraFrame;
+          cameraFrame->ShallowCopy(room);
+          vtkNew<vtkFieldData> fields;
+          vtkNew<vtkIntArray> frameIndex;
+          frameIndex->SetName("FrameIndex");
+          frameIndex->InsertNextValue(frame);
+          fields->AddArray(frameIndex);
+          cameraFrame->SetFieldData(fields);
+          synced->SetInputData(cameraFrame);
+          synced->Update();
+          return synced->GetIlluminationDifference();
+        };
+        const double t = illuminationDifference(light, environment);
+        const double lampAllAlongT =
+          control ? illuminationDifference(lampAllAlongLight, lampOn) : 0.0;
         if (repetition == 0)
         {
           illuminationDifferences.push_back(t);
@@ -854,6 +919,11 @@ int main(int argc, char* argv[])
           options.Width, options.Height);
         twin->RenderStereoFrame(twinVolume, views[0], projections[0], views[1], projections[1],
           options.Width, options.Height);
+        if (control && frame < switchFrame)
+        {
+          lampAllAlong->RenderStereoFrame(lampAllAlongVolume, views[0], projections[0], views[1],
+            projections[1], options.Width, options.Height);
+        }
 
         const Reference* current = nullptr;
         Reference frameReference;
@@ -916,6 +986,28 @@ int main(int argc, char* argv[])
           a.flickerFrames += a.previous[0].empty() ? 0 : 1;
           a.psnr += psnr;
           a.psnrPerRunAndFrame.back().push_back(psnr);
+          if (control)
+          {
+            vtkPathTracedVolumeMapper* source =
+              frame < switchFrame ? lampAllAlong.Get() : raw.Get();
+            vtkImageData* eyes[2] = { source->GetEyeOutput(0), source->GetEyeOutput(1) };
+            if (m > 0)
+            {
+              vtkStereoSpatioTemporalDenoiser* denoiser = denoisers[2][m];
+              denoiser->SetInputData(0, eyes[0]);
+              denoiser->SetInputData(1, eyes[1]);
+              denoiser->SetIlluminationDifference(lampAllAlongT);
+              denoiser->Update();
+              eyes[0] = denoiser->GetEyeOutput(0);
+              eyes[1] = denoiser->GetEyeOutput(1);
+            }
+            if (frame >= switchFrame)
+            {
+              a.lampAllAlongPsnrPerRunAndFrame.back()[frame] = 0.5 *
+                (hv::denoise::displayPSNR(Display(eyes[0]), references[0]) +
+                  hv::denoise::displayPSNR(Display(eyes[1]), references[1]));
+            }
+          }
           a.errorDifference +=
             InterEyeDifference(pairs, display[0], display[1], references[0], references[1]);
           a.noiseDiscrepancy += std::sqrt(0.5) *
@@ -927,8 +1019,7 @@ int main(int argc, char* argv[])
           a.previous[0] = display[0];
           a.previous[1] = display[1];
           if (runs > 1 && m >= 3 &&
-            std::find(std::begin(splitFrames), std::end(splitFrames), frame) !=
-              std::end(splitFrames))
+            std::find(splitFrames.begin(), splitFrames.end(), frame) != splitFrames.end())
           {
             splitDisplays[{ m, frame }].push_back(display[0]);
             splitReferences.try_emplace(frame, references[0]); // the same in every run
@@ -971,6 +1062,29 @@ int main(int argc, char* argv[])
       std::cerr << (repetition + 1 < runs ? "\n        run " + std::to_string(repetition + 2) : "");
     }
     std::cerr << "\n";
+    // The control has the run's own frames from the switch on, so a method without a history
+    // (raw, spatial only) must measure the same there to the last bit; if not, the control
+    // compares more than the history and its recovery figures would mislead.
+    for (int m = 0; m < 2 && sequence == "switch"; ++m)
+    {
+      for (std::size_t r = 0; r < results[m].psnrPerRunAndFrame.size(); ++r)
+      {
+        for (int k = switchFrame; k < options.Frames; ++k)
+        {
+          if (results[m].psnrPerRunAndFrame[r][k] !=
+            results[m].lampAllAlongPsnrPerRunAndFrame[r][k])
+          {
+            std::cerr << "holovolume-denoise-evaluation: the light switch's control (the lamp on "
+                         "all along) measured "
+                      << results[m].lampAllAlongPsnrPerRunAndFrame[r][k] << " dB for '"
+                      << MethodNames[m] << "' at frame " << k << " of run " << r + 1
+                      << ", the run itself " << results[m].psnrPerRunAndFrame[r][k]
+                      << " dB: without a history they must agree. Report this as a bug.\n";
+            return 1;
+          }
+        }
+      }
+    }
     if (!options.Images.empty() && !thumbnails.empty())
     {
       WriteStrip(options.Images + "/denoise-" + sequence + ".png", thumbnails, options.Width,
@@ -1005,10 +1119,12 @@ int main(int argc, char* argv[])
     }
     if (sequence == "switch")
     {
-      std::printf(" frames to recover |");
+      std::printf(" frames to recover | the same against the lamp on all along |");
     }
     std::printf("\n|---|---|---|---|---|---|---|---|%s\n",
-      sequence == "static" || sequence == "switch" ? "---|" : "");
+      sequence == "static"     ? "---|"
+        : sequence == "switch" ? "---|---|"
+                               : "");
     for (int m = 0; m < MethodCount; ++m)
     {
       const Accumulator& a = results[m];
@@ -1055,6 +1171,22 @@ int main(int argc, char* argv[])
           }
           std::printf(")");
         }
+        std::printf(" | %s",
+          text(FramesToRecoverAgainst(
+                 psnrPerFrame, MeanPSNRPerFrame(a.lampAllAlongPsnrPerRunAndFrame), switchFrame))
+            .c_str());
+        if (runs > 1)
+        {
+          std::printf(" (runs:");
+          for (std::size_t r = 0; r < a.psnrPerRunAndFrame.size(); ++r)
+          {
+            std::printf("%s %s", r ? "," : "",
+              text(FramesToRecoverAgainst(
+                     a.psnrPerRunAndFrame[r], a.lampAllAlongPsnrPerRunAndFrame[r], switchFrame))
+                .c_str());
+          }
+          std::printf(")");
+        }
         std::printf(" |");
       }
       std::printf("\n");
@@ -1087,18 +1219,29 @@ int main(int argc, char* argv[])
         std::printf("---|");
       }
       std::printf("\n");
-      for (int m = 0; m < MethodCount; ++m)
+      // Then the control's rows for the methods that keep a history (without one, the control
+      // is the run itself from the switch on); a dash where it is not measured.
+      for (int row = 0; row < 2 * MethodCount - 2; ++row)
       {
-        const std::vector<double> mean = MeanPSNRPerFrame(results[m]);
-        std::printf("| %s |", MethodNames[m]);
+        const bool lampAllAlongRow = row >= MethodCount;
+        const int m = lampAllAlongRow ? row - MethodCount + 2 : row;
+        const std::vector<std::vector<double>>& perRun = lampAllAlongRow
+          ? results[m].lampAllAlongPsnrPerRunAndFrame
+          : results[m].psnrPerRunAndFrame;
+        const std::vector<double> mean = MeanPSNRPerFrame(perRun);
+        std::printf("| %s%s |", MethodNames[m], lampAllAlongRow ? ", lamp on all along" : "");
         for (int k = first; k <= last; ++k)
         {
           double squares = 0.0;
-          for (const std::vector<double>& run : results[m].psnrPerRunAndFrame)
+          for (const std::vector<double>& run : perRun)
           {
             squares += (run[k] - mean[k]) * (run[k] - mean[k]);
           }
-          if (runs > 1)
+          if (std::isnan(mean[k]))
+          {
+            std::printf(" – |");
+          }
+          else if (runs > 1)
           {
             std::printf(" %.2f ± %.2f |", mean[k], std::sqrt(squares / (runs - 1) / runs));
           }
@@ -1121,7 +1264,7 @@ int main(int argc, char* argv[])
           " %+d: bias² / noise (x10^-4), silhouette's share of bias² |", frame - switchFrame);
       }
       std::printf("\n|---|");
-      for (std::size_t k = 0; k < std::size(splitFrames); ++k)
+      for (std::size_t k = 0; k < splitFrames.size(); ++k)
       {
         std::printf("---|");
       }
@@ -1167,8 +1310,8 @@ int main(int argc, char* argv[])
                   "neighbourhood in the reference holds both the volume and empty space "
                   "(%.0f %% of those that see the volume at the last frame)\n",
         100.0 *
-          SilhouetteBandFraction(splitReferences[splitFrames[std::size(splitFrames) - 1]],
-            options.Width, options.Height));
+          SilhouetteBandFraction(
+            splitReferences[splitFrames.back()], options.Width, options.Height));
     }
     std::fflush(stdout);
   }
