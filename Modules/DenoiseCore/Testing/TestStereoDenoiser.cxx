@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <string>
@@ -744,6 +745,49 @@ TEST(StereoDenoiser, MonoFrame)
     gain = hvtest::psnr(output, eye) - hvtest::psnr(eye.radiance, eye);
   }
   EXPECT_GT(gain, 8.0);
+}
+
+// The radiance check counts every non-finite value and copies every value exactly, wherever a
+// row starts: at 37 pixels a row is 592 bytes, so the rows begin at every 16-byte offset of a
+// cache line, and a vector loop's unaligned head, body and tail all run (a copy with AVX-512
+// streaming stores, tried, had all three).
+TEST(StereoDenoiser, RadianceCheckCountsAndCopiesEveryValue)
+{
+  hvtest::SceneState scene;
+  hvtest::EyeBuffers eye;
+  hvtest::renderEye(scene, 0, 37, 11, 0, eye);
+  std::fill(eye.valid.begin(), eye.valid.end(), 0); // nothing seen: the output is the copy
+  const std::size_t values = eye.radiance.size();
+  for (std::size_t i = 0; i < values; ++i)
+  {
+    eye.radiance[i] = static_cast<float>(i) * 0.25f - 100.0f;
+  }
+  eye.radiance[1] = std::numeric_limits<float>::max();
+  eye.radiance[2] = std::numeric_limits<float>::denorm_min();
+  eye.radiance[3] = -0.0f;
+  eye.radiance[values - 2] = -std::numeric_limits<float>::max();
+  StereoDenoiser denoiser;
+  std::vector<float> output(values, 1.0f);
+  float* out[1] = { output.data() };
+  std::string error;
+  const EyeFrame frame = eye.frame();
+  ASSERT_TRUE(denoiser.denoise(&frame, 1, 0.0f, out, error)) << error;
+  for (std::size_t i = 0; i < values; ++i)
+  {
+    ASSERT_EQ(std::memcmp(&output[i], &eye.radiance[i], sizeof(float)), 0) << "value " << i;
+  }
+
+  const std::size_t poisoned[] = { 0, 15, 16, 148 + 7, 3 * 148 + 63, 5 * 148 + 64, values - 1 };
+  for (std::size_t k = 0; k < std::size(poisoned); ++k)
+  {
+    eye.radiance[poisoned[k]] = k % 3 == 0 ? std::numeric_limits<float>::quiet_NaN()
+      : k % 3 == 1                         ? std::numeric_limits<float>::infinity()
+                                           : -std::numeric_limits<float>::infinity();
+  }
+  eye.radiance[4 * 148 + 30] = -std::numeric_limits<float>::quiet_NaN();
+  const EyeFrame poisonedFrame = eye.frame();
+  EXPECT_FALSE(denoiser.denoise(&poisonedFrame, 1, 0.0f, out, error));
+  EXPECT_NE(error.find("contains 8 NaN or infinite"), std::string::npos) << error;
 }
 
 // Bad input: a clear message, no crash, and the history untouched (the next good frame gives
