@@ -63,7 +63,7 @@ holovolume_install_web_test_tools() {
 holovolume_build() {
   local extra=("$@")
   mkdir -p "$HOLOVOLUME_BUILD_DIR"
-  # nvcc is found on PATH or in the usual CUDA prefix; without it the CUDA compile check is skipped.
+  # nvcc is found on PATH or in the usual CUDA prefix; without it there are no CUDA device tests.
   if ! command -v nvcc >/dev/null && [ -x /usr/local/cuda/bin/nvcc ]; then
     export PATH="/usr/local/cuda/bin:$PATH"
   fi

@@ -18,19 +18,7 @@
 #include <cstdio>
 #include <vector>
 
-namespace
-{
-hv::EyeView makeEye(const glm::mat4& view, const glm::mat4& projection, int width, int height)
-{
-  hv::EyeView eye;
-  eye.view = view;
-  eye.projection = projection;
-  eye.width = width;
-  eye.height = height;
-  eye.update();
-  return eye;
-}
-}
+using hvtest::makeEye;
 
 TEST(Camera, GenerateRayAndProjectAreInverse)
 {

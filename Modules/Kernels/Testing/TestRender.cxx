@@ -21,36 +21,11 @@
 
 namespace
 {
+using hvtest::FurnaceRadiance;
+using hvtest::furnaceScene;
+using hvtest::makeBall;
+using hvtest::makeEye;
 using hvtest::RunningStats;
-
-hv::EyeView makeEye(const glm::mat4& view, const glm::mat4& projection, int width, int height)
-{
-  hv::EyeView eye;
-  eye.view = view;
-  eye.projection = projection;
-  eye.width = width;
-  eye.height = height;
-  eye.update();
-  return eye;
-}
-
-// A 24^3 volume on [-0.5, 0.5]^3: a ball of scalar 1 (radius 9 voxels = 0.39) in scalar 0,
-// opacity table (0, alpha) so sigmaT = 10 s per world unit: optical radius ~3.9, i.e. tens of
-// scattering events per path, and a smooth boundary with strong gradients for surface events.
-void makeBall(hv::VolumeGrid& grid, const glm::vec3& albedo)
-{
-  const glm::ivec3 dims(24);
-  const float voxel = 1.0f / 23.0f;
-  grid.setCellSize(4);
-  grid.setIndexToWorld(
-    glm::scale(glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f)), glm::vec3(voxel)));
-  grid.setScalars(dims,
-    hvtest::sampleField(dims,
-      [](const glm::vec3& p) { return glm::length(p - glm::vec3(11.5f)) <= 9.0f ? 1.0f : 0.0f; }));
-  // alpha = 1 - exp(-1) per unit distance 0.1: sigmaT = 10 at s = 1.
-  grid.setTransferFunction({ 0.0f, 1.0f - std::exp(-1.0f) },
-    { albedo.x, albedo.y, albedo.z, albedo.x, albedo.y, albedo.z }, 0.1f, 1.0f);
-}
 
 struct FurnaceResult
 {
@@ -99,22 +74,6 @@ FurnaceResult renderFurnace(const hv::SceneView& scene, int samplesPerPixel, int
   result.coverage = static_cast<double>(hits) / count;
   return result;
 }
-
-hv::SceneView furnaceScene(const hv::VolumeGrid& grid, const hv::EnvironmentMap& environment)
-{
-  hv::SceneView scene;
-  scene.volume = grid.view();
-  scene.environment = environment.view();
-  environment.sphericalHarmonics(scene.irradianceSH);
-  scene.model = hv::PathTraced;
-  scene.lightCount = 0;
-  scene.environmentVisible = true;
-  scene.maximumBounces = 1000;
-  scene.rouletteStartBounce = 3;
-  return scene;
-}
-
-const glm::vec3 FurnaceRadiance(0.8f, 1.0f, 1.3f);
 
 // An equirectangular RGB map of radiance `sky` with a bright rectangle of texels
 // [patch.x, patch.z) x [patch.y, patch.w) (columns x rows).

@@ -1,9 +1,10 @@
 // SPDX-License-Identifier: BSD-3-Clause
 // Copyright (c) 2026 the HoloVolume developers.
 //
-// Instantiates the per-pixel path-tracing kernel (and the fisheye lens model of the stitcher)
-// as CUDA device code. It proves that the kernels stay device-compilable (no virtuals,
-// exceptions or STL inside); the CUDA backend that launches it comes later.
+// Instantiates the fisheye lens model of the stitcher (and a whole-eye kernel of the path
+// tracer) as CUDA device code, so that they stay device-compilable (no virtuals, exceptions or
+// STL inside). The path tracer also runs on a GPU against the host in
+// Testing/TestRenderDevice.cu; the fisheye model is compiled only.
 #include "hv/Equirectangular.h"
 #include "hv/FisheyeLens.h"
 #include "hv/Render.h"

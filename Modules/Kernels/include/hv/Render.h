@@ -488,7 +488,14 @@ HV_FUNCTION PixelResult renderPixel(const SceneView& scene, const EyeView& eye, 
   {
     glm::vec3 origin, direction;
     float length;
-    eye.generateRay(x + rng.nextFloat(), y + rng.nextFloat(), origin, direction, length);
+    // Two statements, since the order in which a call's arguments are evaluated is unspecified:
+    // GCC drew the second argument first and nvcc the first, so the device rendered other
+    // subpixel positions than the host from the same seed (caught by RenderDevice's
+    // FollowsTheHostsPaths). The vertical offset is drawn first, as GCC did, so that host images
+    // stay as they were.
+    const float jitterY = rng.nextFloat();
+    const float jitterX = rng.nextFloat();
+    eye.generateRay(x + jitterX, y + jitterY, origin, direction, length);
     FirstScatter first;
     if (scene.model == PathTraced)
     {

@@ -2,8 +2,8 @@
 // Copyright (c) 2026 the HoloVolume developers.
 //
 // Per-pixel functions of the stereo spatio-temporal denoiser (the paper's Section 3.2). They
-// compile for the host and, under nvcc, for the device (see cuda/DenoisePixelDevice.cu): no
-// virtual calls, exceptions or STL containers.
+// compile for the host and, under nvcc, for the device, where Testing/TestDenoiseKernelsDevice.cu
+// compares them with the host: no virtual calls, exceptions or STL containers.
 #ifndef hv_denoise_DenoiseKernels_h
 #define hv_denoise_DenoiseKernels_h
 
