@@ -63,10 +63,6 @@ holovolume_install_web_test_tools() {
 holovolume_build() {
   local extra=("$@")
   mkdir -p "$HOLOVOLUME_BUILD_DIR"
-  # nvcc is found on PATH or in the usual CUDA prefix; without it there are no CUDA device tests.
-  if ! command -v nvcc >/dev/null && [ -x /usr/local/cuda/bin/nvcc ]; then
-    export PATH="/usr/local/cuda/bin:$PATH"
-  fi
   cmake -S "$HOLOVOLUME_SOURCE_DIR" -B "$HOLOVOLUME_BUILD_DIR" -G Ninja \
     -DCMAKE_BUILD_TYPE=Release \
     -DPython3_EXECUTABLE=/usr/bin/python3 \
