@@ -399,6 +399,7 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.clampWidth = static_cast<float>(this->ClampWidth);
   p.waveletLevels = this->WaveletLevels;
   p.luminanceSigma = static_cast<float>(this->LuminanceSigma);
+  p.waveletLongHistory = static_cast<float>(this->WaveletLongHistory);
   p.stereoAlpha = static_cast<float>(this->StereoAlpha);
   p.stereoBeta = static_cast<float>(this->StereoBeta);
   p.stereoAgreementWidth = static_cast<float>(this->StereoAgreementWidth);
@@ -488,6 +489,7 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "WaveletAlbedoSigma: " << this->WaveletAlbedoSigma << "\n";
   os << indent << "WaveletNormalSharpness: " << this->WaveletNormalSharpness << "\n";
   os << indent << "WaveletDepthSigma: " << this->WaveletDepthSigma << "\n";
+  os << indent << "WaveletLongHistory: " << this->WaveletLongHistory << "\n";
   os << indent << "StereoAlpha: " << this->StereoAlpha << "\n";
   os << indent << "StereoBeta: " << this->StereoBeta << "\n";
   os << indent << "StereoAgreementWidth: " << this->StereoAgreementWidth << "\n";

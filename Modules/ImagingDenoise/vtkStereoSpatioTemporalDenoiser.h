@@ -306,6 +306,17 @@ public:
 
   ///@{
   /**
+   * A pixel whose history holds at least this many frames skips the wavelet filter's last
+   * level (default 4, the history length from which the variance that guides the filter is the
+   * history's own; 0: every pixel takes every level). A long history needs less spatial
+   * filtering, and the last level costs a quarter of the filter's time.
+   */
+  vtkSetClampMacro(WaveletLongHistory, double, 0.0, 1e6);
+  vtkGetMacro(WaveletLongHistory, double);
+  ///@}
+
+  ///@{
+  /**
    * D2's lambda = StereoAlpha (StereoBeta - exp(-|gamma_L - gamma_R|)), clamped to [0, 1].
    * Defaults 0.5 and 2, as in the paper.
    */
@@ -404,6 +415,7 @@ protected:
   double WaveletAlbedoSigma = 0.2;
   double WaveletNormalSharpness = 32.0;
   double WaveletDepthSigma = 0.01;
+  double WaveletLongHistory = 4.0;
   double StereoAlpha = 0.5;
   double StereoBeta = 2.0;
   double StereoAgreementWidth = 3.0;

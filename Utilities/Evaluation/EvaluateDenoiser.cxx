@@ -54,6 +54,7 @@ struct Options
   std::string Images;
   int SwitchRuns = 4;
   int WaveletLevels = -1; // the denoiser's default
+  int WaveletLongHistory = -1; // the denoiser's default
 };
 
 void Usage()
@@ -80,6 +81,10 @@ control: the same frames denoised with a history gathered under the lamp all alo
   --wavelet-levels N     a-trous levels of every denoiser's spatial filter, 0 to 10 [the
                          denoiser's default, 4]: its quality against its cost, which
                          holovolume-denoise-benchmark --wavelet-levels N measures
+  --wavelet-long-history N
+                         frames of history from which a pixel skips the wavelet filter's last
+                         level, in every denoiser, 0 to 1000 [the denoiser's default, 4]; 0:
+                         every pixel takes every level (holovolume-denoise-benchmark times both)
   --help                 this text
 )";
 }
@@ -578,6 +583,9 @@ int main(int argc, char* argv[])
       options.WaveletLevels = holovolume::IntegerOption(program, "--wavelet-levels", value(),
         limits->GetWaveletLevelsMinValue(), limits->GetWaveletLevelsMaxValue());
     }
+    else if (arg == "--wavelet-long-history")
+      options.WaveletLongHistory =
+        holovolume::IntegerOption(program, "--wavelet-long-history", value(), 0, 1000);
     else
     {
       std::cerr << "holovolume-denoise-evaluation: unknown option '" << arg << "'; see --help\n";
@@ -699,6 +707,19 @@ int main(int argc, char* argv[])
   if (options.WaveletLevels >= 0)
   {
     std::printf("\nwavelet levels of every denoiser: %d\n", options.WaveletLevels);
+  }
+  if (options.WaveletLongHistory >= 0)
+  {
+    if (options.WaveletLongHistory == 0)
+    {
+      std::printf("\nevery denoiser's pixels take every wavelet level\n");
+    }
+    else
+    {
+      std::printf("\nevery denoiser's pixels skip the last wavelet level from a history of %d "
+                  "frames\n",
+        options.WaveletLongHistory);
+    }
   }
 
   // Raw PSNR against the spp, for the equal-quality figure: the static view, an independent
@@ -849,9 +870,16 @@ int main(int argc, char* argv[])
         run[3]->StereoBlendOff();
         run[5]->SetStereoAgreementWidth(0.0);
         run[CoverageFilteredMethod]->SetCoverageAgreementWidth(0.0);
-        for (int method = 0; method < MethodCount && options.WaveletLevels >= 0; ++method)
+        for (int method = 0; method < MethodCount; ++method)
         {
-          run[method]->SetWaveletLevels(options.WaveletLevels);
+          if (options.WaveletLevels >= 0)
+          {
+            run[method]->SetWaveletLevels(options.WaveletLevels);
+          }
+          if (options.WaveletLongHistory >= 0)
+          {
+            run[method]->SetWaveletLongHistory(options.WaveletLongHistory);
+          }
         }
       }
       vtkNew<vtkEnvironmentSyncedLight> light, lampAllAlongLight;

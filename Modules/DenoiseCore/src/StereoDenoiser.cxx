@@ -2236,18 +2236,59 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
   stageStart = Clock::now();
   int source = 0;
   const int levels = p.spatialFilter ? glm::max(p.waveletLevels, 0) : 0;
+  // Beyond SVGF, as NVIDIA's REBLUR (NRD) narrows its blur as a pixel's history grows: a
+  // pixel with a long history skips the last level (the widest, a quarter of the filter's
+  // time), and only pixels that start over, or have just started, take every level.
+  const float longHistory = p.temporalAccumulation ? p.waveletLongHistory : 0.0f;
   for (int level = 0; level < levels; ++level)
   {
     const int step = 1 << level;
     const int target = 1 - source;
+    const bool adaptive = level == levels - 1 && longHistory > 0.0f;
     // filterWaveletRow is cloned in its own file; this caller has no loop of its own.
     impl.forSpans(eyeCount, height,
       [&](int e, int y, int begin, int end)
       {
         EyeState& eye = impl.eyes[e];
-        filterWaveletRow(eye.surface, eye.filtered[source], eye.variance[source],
-          eye.filtered[target], eye.variance[target], width, height, y, begin, end, step,
-          p.luminanceSigma, p.wavelet);
+        if (!adaptive)
+        {
+          filterWaveletRow(eye.surface, eye.filtered[source], eye.variance[source],
+            eye.filtered[target], eye.variance[target], width, height, y, begin, end, step,
+            p.luminanceSigma, p.wavelet);
+          return;
+        }
+        // The last level filters the runs of pixels whose history is shorter than
+        // waveletLongHistory frames; the others keep the level before's value and variance.
+        const std::size_t row = static_cast<std::size_t>(y) * width;
+        const HistoryInfo* info = eye.nextHistoryInfo.data() + row;
+        int x = begin;
+        while (x < end)
+        {
+          const bool filter = info[x].frames < longHistory;
+          int runEnd = x + 1;
+          while (runEnd < end && (info[runEnd].frames < longHistory) == filter)
+          {
+            ++runEnd;
+          }
+          if (filter)
+          {
+            filterWaveletRow(eye.surface, eye.filtered[source], eye.variance[source],
+              eye.filtered[target], eye.variance[target], width, height, y, x, runEnd, step,
+              p.luminanceSigma, p.wavelet);
+          }
+          else
+          {
+            for (int c = 0; c < 4; ++c)
+            {
+              std::copy(eye.filtered[source].channel[c].begin() + row + x,
+                eye.filtered[source].channel[c].begin() + row + runEnd,
+                eye.filtered[target].channel[c].begin() + row + x);
+            }
+            std::copy(eye.variance[source].begin() + row + x,
+              eye.variance[source].begin() + row + runEnd, eye.variance[target].begin() + row + x);
+          }
+          x = runEnd;
+        }
       });
     source = target;
   }

@@ -37,26 +37,67 @@ def eye_matrices(offset):
     return view, projection
 
 
+def sphere_scene():
+    mapper = holovolume.vtkPathTracedVolumeMapper()
+    mapper.SetInputData(sphere_volume())
+    mapper.ProgressiveAccumulationOff()
+    opacity = vtkPiecewiseFunction()
+    opacity.AddPoint(0, 0.0)
+    opacity.AddPoint(255, 0.5)
+    color = vtkColorTransferFunction()
+    color.AddRGBPoint(0, 0.9, 0.8, 0.7)
+    color.AddRGBPoint(255, 0.9, 0.8, 0.7)
+    prop = vtkVolumeProperty()
+    prop.SetScalarOpacity(opacity)
+    prop.SetColor(color)
+    volume = vtkVolume()
+    volume.SetMapper(mapper)
+    volume.SetProperty(prop)
+    return mapper, volume
+
+
+def radiance_values(denoiser, eye):
+    radiance = denoiser.GetEyeOutput(eye).GetPointData().GetArray("Radiance")
+    return [radiance.GetValue(i) for i in range(radiance.GetNumberOfValues())]
+
+
 class DenoiserPipelineTest(unittest.TestCase):
     def test_package_exports_the_denoiser(self):
         self.assertIn("vtkStereoSpatioTemporalDenoiser", holovolume.__all__)
 
+    def test_long_history_skips_the_last_wavelet_level(self):
+        """WaveletLongHistory reaches the kernels: on a first frame (history 1), a threshold
+        of 1 frame gives one wavelet level fewer, the default of 4 every level (D2 off, so
+        that each pixel depends on its own eye only)."""
+        mapper, volume = sphere_scene()
+        left, right = eye_matrices(-1.0), eye_matrices(1.0)
+        self.assertEqual(mapper.RenderStereoFrame(volume, left[0], left[1], right[0],
+                                                  right[1], 40, 40), 1)
+        denoisers = {}
+        for name, levels, long_history in (("skips", 4, 1.0), ("fewer", 3, 0.0),
+                                           ("default", 4, None), ("every", 4, 0.0)):
+            denoiser = holovolume.vtkStereoSpatioTemporalDenoiser()
+            denoiser.StereoBlendOff()
+            denoiser.SetIlluminationDifference(0.0)
+            denoiser.SetWaveletLevels(levels)
+            if long_history is not None:
+                denoiser.SetWaveletLongHistory(long_history)
+            denoiser.SetLeftEyeData(mapper.GetEyeOutput(0))
+            denoiser.SetRightEyeData(mapper.GetEyeOutput(1))
+            denoiser.Update()
+            denoisers[name] = denoiser
+        self.assertEqual(denoisers["default"].GetWaveletLongHistory(), 4.0)
+        denoisers["every"].SetWaveletLongHistory(-1.0)  # clamped: 0 is every level everywhere
+        self.assertEqual(denoisers["every"].GetWaveletLongHistory(), 0.0)
+        for eye in (0, 1):
+            skips = radiance_values(denoisers["skips"], eye)
+            self.assertEqual(skips, radiance_values(denoisers["fewer"], eye))
+            every = radiance_values(denoisers["default"], eye)
+            self.assertEqual(every, radiance_values(denoisers["every"], eye))
+            self.assertNotEqual(skips, every)
+
     def test_mapper_eyes_through_the_denoiser(self):
-        mapper = holovolume.vtkPathTracedVolumeMapper()
-        mapper.SetInputData(sphere_volume())
-        mapper.ProgressiveAccumulationOff()
-        opacity = vtkPiecewiseFunction()
-        opacity.AddPoint(0, 0.0)
-        opacity.AddPoint(255, 0.5)
-        color = vtkColorTransferFunction()
-        color.AddRGBPoint(0, 0.9, 0.8, 0.7)
-        color.AddRGBPoint(255, 0.9, 0.8, 0.7)
-        prop = vtkVolumeProperty()
-        prop.SetScalarOpacity(opacity)
-        prop.SetColor(color)
-        volume = vtkVolume()
-        volume.SetMapper(mapper)
-        volume.SetProperty(prop)
+        mapper, volume = sphere_scene()
         left, right = eye_matrices(-1.0), eye_matrices(1.0)
 
         denoiser = holovolume.vtkStereoSpatioTemporalDenoiser()
