@@ -2250,44 +2250,41 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       [&](int e, int y, int begin, int end)
       {
         EyeState& eye = impl.eyes[e];
-        if (!adaptive)
+        auto filterRun = [&](int runBegin, int runEnd)
         {
           filterWaveletRow(eye.surface, eye.filtered[source], eye.variance[source],
-            eye.filtered[target], eye.variance[target], width, height, y, begin, end, step,
+            eye.filtered[target], eye.variance[target], width, height, y, runBegin, runEnd, step,
             p.luminanceSigma, p.wavelet);
+        };
+        if (!adaptive)
+        {
+          filterRun(begin, end);
           return;
         }
         // The last level filters the runs of pixels whose history is shorter than
         // waveletLongHistory frames; the others keep the level before's value and variance.
         const std::size_t row = static_cast<std::size_t>(y) * width;
         const HistoryInfo* info = eye.nextHistoryInfo.data() + row;
-        int x = begin;
-        while (x < end)
+        for (int x = begin, runEnd; x < end; x = runEnd)
         {
           const bool filter = info[x].frames < longHistory;
-          int runEnd = x + 1;
-          while (runEnd < end && (info[runEnd].frames < longHistory) == filter)
+          for (runEnd = x + 1; runEnd < end && (info[runEnd].frames < longHistory) == filter;)
           {
             ++runEnd;
           }
           if (filter)
           {
-            filterWaveletRow(eye.surface, eye.filtered[source], eye.variance[source],
-              eye.filtered[target], eye.variance[target], width, height, y, x, runEnd, step,
-              p.luminanceSigma, p.wavelet);
+            filterRun(x, runEnd);
+            continue;
           }
-          else
+          for (int c = 0; c < 4; ++c)
           {
-            for (int c = 0; c < 4; ++c)
-            {
-              std::copy(eye.filtered[source].channel[c].begin() + row + x,
-                eye.filtered[source].channel[c].begin() + row + runEnd,
-                eye.filtered[target].channel[c].begin() + row + x);
-            }
-            std::copy(eye.variance[source].begin() + row + x,
-              eye.variance[source].begin() + row + runEnd, eye.variance[target].begin() + row + x);
+            const std::vector<float>& from = eye.filtered[source].channel[c];
+            std::copy(from.begin() + row + x, from.begin() + row + runEnd,
+              eye.filtered[target].channel[c].begin() + row + x);
           }
-          x = runEnd;
+          std::copy(eye.variance[source].begin() + row + x,
+            eye.variance[source].begin() + row + runEnd, eye.variance[target].begin() + row + x);
         }
       });
     source = target;
