@@ -95,6 +95,7 @@ control: the same frames denoised with a history gathered under the lamp all alo
 // denoiser whose wavelet filter averages coverage like the colour (SetCoverageAgreementWidth).
 constexpr int MethodCount = 7;
 constexpr int ThumbnailMethodCount = 5;
+constexpr int D1Method = 3; // the methods from here on have D1, and D2's figures compare with it
 constexpr int FullMethod = 4;
 constexpr int CoverageFilteredMethod = 6;
 const char* MethodNames[MethodCount] = { "raw 2 spp", "spatial only", "temporal only", "D1",
@@ -1086,7 +1087,7 @@ int main(int argc, char* argv[])
           ++a.frames;
           a.previous[0] = display[0];
           a.previous[1] = display[1];
-          if (runs > 1 && m >= 3 &&
+          if (runs > 1 && m >= D1Method &&
             std::find(splitFrames.begin(), splitFrames.end(), frame) != splitFrames.end())
           {
             splitDisplays[{ m, frame }].push_back(display[0]);
@@ -1274,13 +1275,13 @@ int main(int argc, char* argv[])
     // sees the edge from its own side there (its pixels' coverage differs for real), so the
     // noise test keeps the eyes apart where their noise is largest.
     {
-      const Accumulator& d1 = results[3];
+      const Accumulator& d1 = results[D1Method];
       std::printf("\n### Noise discrepancy at centred correspondences, inside the silhouette and "
                   "on it\n\n| method | inside (x1000) | cut against D1 | on the silhouette "
                   "(x1000) | cut against D1 | the silhouette's share of the squares |\n"
                   "|---|---|---|---|---|---|\n");
       auto cut = [](double before, double after) { return after > 0.0 ? before / after : 0.0; };
-      for (int m = 3; m < MethodCount; ++m)
+      for (int m = D1Method; m < MethodCount; ++m)
       {
         const Accumulator& a = results[m];
         std::printf("| %s | %.2f | %.2fx | %.2f | %.2fx | %.0f %% |\n", MethodNames[m],
