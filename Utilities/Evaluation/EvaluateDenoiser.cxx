@@ -167,11 +167,10 @@ struct Correspondences
 {
   PixelPairs pairs;
   PixelPairs centredPairs;
-  // The centred pairs split by where they lie: on the volume's silhouette (either pixel in its
-  // eye's SilhouetteBand), where the eyes see the edge from different sides and each pixel's
-  // coverage differs for real, and inside it.
-  PixelPairs centredInteriorPairs;
-  PixelPairs centredSilhouettePairs;
+  // Which centred pairs lie on the volume's silhouette (either pixel in its eye's
+  // SilhouetteBand), where the eyes see the edge from different sides and each pixel's coverage
+  // differs for real; the others lie inside it.
+  std::vector<bool> centredOnSilhouette;
 };
 
 // A converged frame: both eyes' display values and, for the inter-eye figures, which right pixel
@@ -241,21 +240,46 @@ Correspondences CorrespondingPixels(
 // again with independent random numbers (and denoised by a second instance of the method) as
 // baselines, the biases and the references cancel, and what is left is the difference of the
 // eyes' noise, what D2 is for: Var(d1 - d2) = 2 Var(d), so it is divided by sqrt(2).
-double InterEyeDifference(const PixelPairs& pairs, const std::vector<float>& left,
-  const std::vector<float>& right, const std::vector<float>& leftBaseline,
-  const std::vector<float>& rightBaseline)
+// InterEyeSquares keeps the squares of two classes of pairs apart (inPair[k] true: class 1),
+// so that one pass gives the figure over all pairs and over each class.
+struct InterEyeSquares
 {
-  double squared = 0.0;
-  for (const auto& [i, q] : pairs)
+  double squared[2] = { 0.0, 0.0 };
+  std::size_t pairs[2] = { 0, 0 };
+
+  double RMS(double squares, std::size_t count) const
   {
+    return count ? std::sqrt(squares / (3.0 * static_cast<double>(count))) : 0.0;
+  }
+  double RMS(int pairClass) const { return RMS(squared[pairClass], pairs[pairClass]); }
+  double RMS() const { return RMS(squared[0] + squared[1], pairs[0] + pairs[1]); }
+};
+
+InterEyeSquares InterEyeDifferenceSquares(const PixelPairs& pairs, const std::vector<bool>* inPair,
+  const std::vector<float>& left, const std::vector<float>& right,
+  const std::vector<float>& leftBaseline, const std::vector<float>& rightBaseline)
+{
+  InterEyeSquares squares;
+  for (std::size_t k = 0; k < pairs.size(); ++k)
+  {
+    const auto [i, q] = pairs[k];
+    const int pairClass = inPair && (*inPair)[k] ? 1 : 0;
     for (int c = 0; c < 3; ++c)
     {
       const double d =
         (left[3 * i + c] - leftBaseline[3 * i + c]) - (right[3 * q + c] - rightBaseline[3 * q + c]);
-      squared += d * d;
+      squares.squared[pairClass] += d * d;
     }
+    ++squares.pairs[pairClass];
   }
-  return pairs.empty() ? 0.0 : std::sqrt(squared / (3.0 * static_cast<double>(pairs.size())));
+  return squares;
+}
+
+double InterEyeDifference(const PixelPairs& pairs, const std::vector<float>& left,
+  const std::vector<float>& right, const std::vector<float>& leftBaseline,
+  const std::vector<float>& rightBaseline)
+{
+  return InterEyeDifferenceSquares(pairs, nullptr, left, right, leftBaseline, rightBaseline).RMS();
 }
 
 struct Accumulator
@@ -371,18 +395,16 @@ double SilhouetteBandFraction(const std::vector<float>& image, int width, int he
   return seen ? static_cast<double>(inBand) / static_cast<double>(seen) : 0.0;
 }
 
-// Splits the centred pairs into those on the silhouette of either eye's reference and those
-// inside it.
-void SplitAtSilhouette(
+// Marks the centred pairs on the silhouette of either eye's reference.
+void MarkSilhouettePairs(
   Correspondences& correspondences, const std::vector<float> reference[2], int width, int height)
 {
   const std::vector<bool> band[2] = { SilhouetteBand(reference[0], width, height),
     SilhouetteBand(reference[1], width, height) };
+  correspondences.centredOnSilhouette.clear();
   for (const auto& [i, q] : correspondences.centredPairs)
   {
-    (band[0][i] || band[1][q] ? correspondences.centredSilhouettePairs
-                              : correspondences.centredInteriorPairs)
-      .emplace_back(i, q);
+    correspondences.centredOnSilhouette.push_back(band[0][i] || band[1][q]);
   }
 }
 
@@ -722,7 +744,7 @@ int main(int argc, char* argv[])
     }
     out.correspondingPixels =
       CorrespondingPixels(meanDepth, reference->GetEyeOutput(0), reference->GetEyeOutput(1));
-    SplitAtSilhouette(out.correspondingPixels, out.eye, options.Width, options.Height);
+    MarkSilhouettePairs(out.correspondingPixels, out.eye, options.Width, options.Height);
   };
 
   std::printf("# holovolume-denoise-evaluation\n\n%s under %s, %dx%d per eye, %d stereo frames "
@@ -1067,22 +1089,15 @@ int main(int argc, char* argv[])
             InterEyeDifference(pairs, display[0], display[1], references[0], references[1]);
           a.noiseDiscrepancy += std::sqrt(0.5) *
             InterEyeDifference(pairs, display[0], display[1], twinDisplay[0], twinDisplay[1]);
-          a.centredNoiseDiscrepancy += std::sqrt(0.5) *
-            InterEyeDifference(
-              centredPairs, display[0], display[1], twinDisplay[0], twinDisplay[1]);
           {
-            const PixelPairs& interior = current->correspondingPixels.centredInteriorPairs;
-            const PixelPairs& band = current->correspondingPixels.centredSilhouettePairs;
-            const double inside = std::sqrt(0.5) *
-              InterEyeDifference(interior, display[0], display[1], twinDisplay[0], twinDisplay[1]);
-            const double onBand = std::sqrt(0.5) *
-              InterEyeDifference(band, display[0], display[1], twinDisplay[0], twinDisplay[1]);
-            const double insideSquares = inside * inside * static_cast<double>(interior.size());
-            const double bandSquares = onBand * onBand * static_cast<double>(band.size());
-            a.interiorNoiseDiscrepancy += inside;
-            a.silhouetteNoiseDiscrepancy += onBand;
-            a.silhouetteSquareShare +=
-              insideSquares + bandSquares > 0.0 ? bandSquares / (insideSquares + bandSquares) : 0.0;
+            const InterEyeSquares centred = InterEyeDifferenceSquares(centredPairs,
+              &current->correspondingPixels.centredOnSilhouette, display[0], display[1],
+              twinDisplay[0], twinDisplay[1]);
+            a.centredNoiseDiscrepancy += std::sqrt(0.5) * centred.RMS();
+            a.interiorNoiseDiscrepancy += std::sqrt(0.5) * centred.RMS(0);
+            a.silhouetteNoiseDiscrepancy += std::sqrt(0.5) * centred.RMS(1);
+            const double allSquares = centred.squared[0] + centred.squared[1];
+            a.silhouetteSquareShare += allSquares > 0.0 ? centred.squared[1] / allSquares : 0.0;
           }
           ++a.frames;
           a.previous[0] = display[0];
@@ -1121,7 +1136,9 @@ int main(int argc, char* argv[])
         referenceFlicker.previous[1] = references[1];
         pairCount += pairs.size();
         centredPairCount += centredPairs.size();
-        silhouettePairCount += current->correspondingPixels.centredSilhouettePairs.size();
+        silhouettePairCount += static_cast<std::size_t>(
+          std::count(current->correspondingPixels.centredOnSilhouette.begin(),
+            current->correspondingPixels.centredOnSilhouette.end(), true));
         if (frame == thumbnailFrame)
         {
           thumbnails.push_back(references[0]);
