@@ -12,7 +12,7 @@ HOLOVOLUME_BUILD_DIR="${HOLOVOLUME_BUILD_DIR:-$HOLOVOLUME_SOURCE_DIR/build}"
 # tests), and the real data: the ch2 head MRI (mricron-data) and CC0 HDR panoramas (blender-data).
 HOLOVOLUME_PACKAGES=(
   build-essential cmake ninja-build pkg-config
-  libvtk9-dev python3-vtk9 libtbb-dev
+  libvtk9-dev python3-vtk9 python3-numpy libtbb-dev
   libglm-dev libopencv-dev libopenexr-dev libopenimageio-dev openimageio-tools nlohmann-json3-dev
   libboost-dev libssl-dev openssl libavcodec-dev libavutil-dev libswscale-dev
   libgtest-dev libgmock-dev libbenchmark-dev
