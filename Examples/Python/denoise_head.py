@@ -108,22 +108,23 @@ for eye, name in ((0, "left"), (1, "right")):
 if args.reference_spp == 0:
     sys.exit(0)
 
-# The reference: the last frame's view, progressive, from a mapper with other random numbers.
-reference = HeadScene(args.volume, args.environment)
-reference.mapper.SetSeed(mapper.GetSeed() + 7919)
-reference.mapper.SetSamplesPerPixel(min(args.reference_spp, 16))
-passes = math.ceil(args.reference_spp / reference.mapper.GetSamplesPerPixel())
-matrices = scene.eye_matrices(width, height, (args.frames - 1) * args.orbit)
-print(f"reference: {passes * reference.mapper.GetSamplesPerPixel()} spp", end="", flush=True)
+# The reference: the last frame's view, accumulated progressively by the same mapper with other
+# random numbers (the changed settings restart its accumulation; the raw and denoised display
+# images above are copies and stay as they are).
+mapper.SetSeed(mapper.GetSeed() + 7919)
+mapper.SetSamplesPerPixel(min(args.reference_spp, 16))
+mapper.ProgressiveAccumulationOn()
+passes = math.ceil(args.reference_spp / mapper.GetSamplesPerPixel())
+print(f"reference: {passes * mapper.GetSamplesPerPixel()} spp", end="", flush=True)
 for _ in range(passes):
-    if not reference.mapper.RenderStereoFrame(reference.volume, *matrices, width, height):
+    if not mapper.RenderStereoFrame(scene.volume, *matrices, width, height):
         sys.exit("\nrendering the reference failed (see the error above)")
     print(".", end="", flush=True)
 print()
 
 
-def psnr(image, reference_image):
-    mse = np.mean((display_rgb(image) - display_rgb(reference_image)) ** 2)
+def psnr(image, truth_rgb):
+    mse = np.mean((display_rgb(image) - truth_rgb) ** 2)
     return math.inf if mse == 0 else 10 * math.log10(1 / mse)
 
 
@@ -131,7 +132,7 @@ print("PSNR of the display values against the reference (dB):")
 print(f"  {'eye':6s} {'raw 2 spp':>10s} {'denoised':>10s} {'gain':>7s}")
 gains = []
 for eye, name in ((0, "left"), (1, "right")):
-    truth = display(reference.mapper.GetEyeOutput(eye), reference.mapper)
+    truth = display_rgb(display(mapper.GetEyeOutput(eye), mapper))
     raw = psnr(eyes[name]["raw"], truth)
     denoised = psnr(eyes[name]["denoised"], truth)
     gains.append(denoised - raw)
