@@ -403,6 +403,7 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.stereoAlpha = static_cast<float>(this->StereoAlpha);
   p.stereoBeta = static_cast<float>(this->StereoBeta);
   p.stereoAgreementWidth = static_cast<float>(this->StereoAgreementWidth);
+  p.stereoCoverageWidth = static_cast<float>(this->StereoCoverageWidth);
 
   vtkImageData* outputs[2] = { vtkImageData::GetData(outputVector, 0),
     vtkImageData::GetData(outputVector, 1) };
@@ -493,5 +494,6 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "StereoAlpha: " << this->StereoAlpha << "\n";
   os << indent << "StereoBeta: " << this->StereoBeta << "\n";
   os << indent << "StereoAgreementWidth: " << this->StereoAgreementWidth << "\n";
+  os << indent << "StereoCoverageWidth: " << this->StereoCoverageWidth << "\n";
   os << indent << "LastFrameMilliseconds: " << this->Internals->LastMilliseconds << "\n";
 }

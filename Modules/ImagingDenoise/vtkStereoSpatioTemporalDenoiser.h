@@ -342,6 +342,21 @@ public:
   vtkGetMacro(StereoAgreementWidth, double);
   ///@}
 
+  ///@{
+  /**
+   * Beyond the paper: D2 blends the other eye only as far as the eyes' coverages at the point
+   * agree within this many standard deviations of their noise, as the cross-view samples do
+   * (CrossViewCoverageWidth). At the silhouette each eye sees the edge from its own side, and
+   * the blend moved the other eye's coverage into this eye's edge. Default 1; 0 blends
+   * whatever the coverages. On the head MRI at 96x62 the default gains 6-11 % of the
+   * equal-quality spp in every sequence, and D2 no longer costs accuracy under an orbiting
+   * camera, but it keeps more of the eyes' noise apart on the silhouette
+   * (Documentation/Denoising.md).
+   */
+  vtkSetClampMacro(StereoCoverageWidth, double, 0.0, 100.0);
+  vtkGetMacro(StereoCoverageWidth, double);
+  ///@}
+
   /**
    * Milliseconds the last frame took (all stages).
    */
@@ -419,6 +434,7 @@ protected:
   double StereoAlpha = 0.5;
   double StereoBeta = 2.0;
   double StereoAgreementWidth = 3.0;
+  double StereoCoverageWidth = 1.0;
 
 private:
   vtkStereoSpatioTemporalDenoiser(const vtkStereoSpatioTemporalDenoiser&) = delete;

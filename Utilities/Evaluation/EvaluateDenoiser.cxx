@@ -90,16 +90,20 @@ control: the same frames denoised with a history gathered under the lamp all alo
 }
 
 // The methods (the full denoiser with its defaults, which include the noise test of
-// the other eye's value in D2, vtkStereoSpatioTemporalDenoiser::SetStereoAgreementWidth), then
-// two ablations that the thumbnails leave out: the paper's D2 without that test, and the full
-// denoiser whose wavelet filter averages coverage like the colour (SetCoverageAgreementWidth).
-constexpr int MethodCount = 7;
+// the other eye's value in D2, vtkStereoSpatioTemporalDenoiser::SetStereoAgreementWidth, and
+// its coverage test, SetStereoCoverageWidth), then three ablations that the thumbnails leave
+// out: the paper's D2 without either test, the full denoiser whose wavelet filter averages
+// coverage like the colour (SetCoverageAgreementWidth), and the full denoiser whose D2 blends
+// whatever the coverages (the default before the coverage test).
+constexpr int MethodCount = 8;
 constexpr int ThumbnailMethodCount = 5;
 constexpr int D1Method = 3; // the methods from here on have D1, and D2's figures compare with it
 constexpr int FullMethod = 4;
 constexpr int CoverageFilteredMethod = 6;
+constexpr int WithoutStereoCoverageMethod = 7;
 const char* MethodNames[MethodCount] = { "raw 2 spp", "spatial only", "temporal only", "D1",
-  "D1 + D2 (full)", "D1 + D2, paper's lambda alone", "D1 + D2, coverage filtered like colour" };
+  "D1 + D2 (full)", "D1 + D2, paper's lambda alone", "D1 + D2, coverage filtered like colour",
+  "D1 + D2, D2 without its coverage test" };
 
 std::vector<float> Display(vtkImageData* image)
 {
@@ -179,6 +183,8 @@ struct Reference
 {
   std::vector<float> eye[2];
   Correspondences correspondingPixels;
+  // Each eye's SilhouetteBand, for the error inside the silhouette and on it.
+  std::vector<bool> silhouette[2];
 };
 
 // The expected first scatter depth of every pixel, averaged over the reference's frames (each
@@ -290,6 +296,9 @@ struct Accumulator
   // squares (each a per-frame figure, summed over the frames).
   double interiorNoiseDiscrepancy = 0.0, silhouetteNoiseDiscrepancy = 0.0,
          silhouetteSquareShare = 0.0;
+  // The mean squared error inside the silhouette and on it (both eyes; each a per-frame figure
+  // summed over the frames), and the silhouette's share of the squared error.
+  double interiorSquaredError = 0.0, silhouetteSquaredError = 0.0, silhouetteErrorShare = 0.0;
   int frames = 0, flickerFrames = 0;
   std::vector<std::vector<double>> psnrPerRunAndFrame;
   // The light switch's control: each run's PSNR per frame with the lamp on all along (the same
@@ -396,16 +405,49 @@ double SilhouetteBandFraction(const std::vector<float>& image, int width, int he
 }
 
 // Marks the centred pairs on the silhouette of either eye's reference.
-void MarkSilhouettePairs(
-  Correspondences& correspondences, const std::vector<float> reference[2], int width, int height)
+void MarkSilhouettePairs(Correspondences& correspondences, const std::vector<bool> band[2])
 {
-  const std::vector<bool> band[2] = { SilhouetteBand(reference[0], width, height),
-    SilhouetteBand(reference[1], width, height) };
   correspondences.centredOnSilhouette.clear();
   for (const auto& [i, q] : correspondences.centredPairs)
   {
     correspondences.centredOnSilhouette.push_back(band[0][i] || band[1][q]);
   }
+}
+
+// The squared error of display values (summed over the channels) inside the silhouette (pixels
+// that show the volume in the reference, outside its SilhouetteBand) and on it (the band), and
+// how many pixels each holds. Pixels that show nothing and lie away from the volume count in
+// neither: their error is the same for every method that keeps the background black.
+struct RegionSquares
+{
+  double squared[2] = { 0.0, 0.0 }; // inside, on the silhouette
+  std::size_t pixels[2] = { 0, 0 };
+
+  double Mean(int region) const
+  {
+    return pixels[region] ? squared[region] / (3.0 * static_cast<double>(pixels[region])) : 0.0;
+  }
+};
+
+RegionSquares RegionSquaredErrors(const std::vector<float>& image,
+  const std::vector<float>& reference, const std::vector<bool>& band)
+{
+  RegionSquares squares;
+  for (std::size_t i = 0; i < band.size(); ++i)
+  {
+    const int region = band[i] ? 1 : IsEmpty(reference, i) ? -1 : 0;
+    if (region < 0)
+    {
+      continue;
+    }
+    for (int c = 0; c < 3; ++c)
+    {
+      const double d = image[3 * i + c] - reference[3 * i + c];
+      squares.squared[region] += d * d;
+    }
+    ++squares.pixels[region];
+  }
+  return squares;
 }
 
 // Display RGB (row 0 at the bottom) as an 8-bit BGR image, top row first.
@@ -744,7 +786,11 @@ int main(int argc, char* argv[])
     }
     out.correspondingPixels =
       CorrespondingPixels(meanDepth, reference->GetEyeOutput(0), reference->GetEyeOutput(1));
-    MarkSilhouettePairs(out.correspondingPixels, out.eye, options.Width, options.Height);
+    for (int e = 0; e < 2; ++e)
+    {
+      out.silhouette[e] = SilhouetteBand(out.eye[e], options.Width, options.Height);
+    }
+    MarkSilhouettePairs(out.correspondingPixels, out.silhouette);
   };
 
   std::printf("# holovolume-denoise-evaluation\n\n%s under %s, %dx%d per eye, %d stereo frames "
@@ -853,6 +899,8 @@ int main(int argc, char* argv[])
     Accumulator referenceFlicker;
     std::size_t pairCount = 0, centredPairCount = 0; // over the frames of the first run
     std::size_t silhouettePairCount = 0;
+    // The silhouette band's pixels over those that show the volume or lie in it, both eyes.
+    std::size_t silhouettePixels = 0, regionPixels = 0;
     std::vector<double> illuminationDifferences;
     const int switchFrame = options.Frames / 2;
     vtkSmartPointer<vtkImageData> lampOn =
@@ -918,6 +966,8 @@ int main(int argc, char* argv[])
         run[2]->SetClampWidth(0.0);
         run[3]->StereoBlendOff();
         run[5]->SetStereoAgreementWidth(0.0);
+        run[5]->SetStereoCoverageWidth(0.0);
+        run[WithoutStereoCoverageMethod]->SetStereoCoverageWidth(0.0);
         run[CoverageFilteredMethod]->SetCoverageAgreementWidth(0.0);
         for (int method = 0; method < MethodCount; ++method)
         {
@@ -1051,8 +1101,16 @@ int main(int argc, char* argv[])
           }
           Accumulator& a = results[m];
           double psnr = 0.0;
+          RegionSquares regionSquares;
           for (int e = 0; e < 2; ++e)
           {
+            const RegionSquares eyeSquares =
+              RegionSquaredErrors(display[e], references[e], current->silhouette[e]);
+            for (int region = 0; region < 2; ++region)
+            {
+              regionSquares.squared[region] += eyeSquares.squared[region];
+              regionSquares.pixels[region] += eyeSquares.pixels[region];
+            }
             psnr += 0.5 * hv::denoise::displayPSNR(display[e], references[e]);
             a.ssim += 0.5 * SSIM(display[e], references[e], options.Width, options.Height);
             if (!a.previous[e].empty())
@@ -1062,6 +1120,13 @@ int main(int argc, char* argv[])
           }
           a.flickerFrames += a.previous[0].empty() ? 0 : 1;
           a.psnr += psnr;
+          a.interiorSquaredError += regionSquares.Mean(0);
+          a.silhouetteSquaredError += regionSquares.Mean(1);
+          {
+            const double allSquares = regionSquares.squared[0] + regionSquares.squared[1];
+            a.silhouetteErrorShare +=
+              allSquares > 0.0 ? regionSquares.squared[1] / allSquares : 0.0;
+          }
           a.psnrPerRunAndFrame.back().push_back(psnr);
           if (control)
           {
@@ -1139,6 +1204,13 @@ int main(int argc, char* argv[])
         silhouettePairCount += static_cast<std::size_t>(
           std::count(current->correspondingPixels.centredOnSilhouette.begin(),
             current->correspondingPixels.centredOnSilhouette.end(), true));
+        for (int e = 0; e < 2; ++e)
+        {
+          const RegionSquares counted =
+            RegionSquaredErrors(references[e], references[e], current->silhouette[e]);
+          silhouettePixels += counted.pixels[1];
+          regionPixels += counted.pixels[0] + counted.pixels[1];
+        }
         if (frame == thumbnailFrame)
         {
           thumbnails.push_back(references[0]);
@@ -1314,6 +1386,29 @@ int main(int argc, char* argv[])
                   "of the frame's RMS\n",
         centredPairCount
           ? 100.0 * static_cast<double>(silhouettePairCount) / static_cast<double>(centredPairCount)
+          : 0.0);
+    }
+    // Where each method's error lies: D2 blends the other eye's value, and on the silhouette
+    // that eye sees the edge from its own side, so what D2 gains or costs in accuracy shows
+    // there first.
+    {
+      std::printf("\n### Squared error inside the silhouette and on it\n\n| method | inside "
+                  "(x10^-4) | on the silhouette (x10^-4) | the silhouette's share of the "
+                  "squared error |\n|---|---|---|---|\n");
+      for (int m = 0; m < MethodCount; ++m)
+      {
+        const Accumulator& a = results[m];
+        std::printf("| %s | %.2f | %.2f | %.0f %% |\n", MethodNames[m],
+          1e4 * a.interiorSquaredError / a.frames, 1e4 * a.silhouetteSquaredError / a.frames,
+          100.0 * a.silhouetteErrorShare / a.frames);
+      }
+      std::printf("\nmean squared error of display values per channel, both eyes, mean over the "
+                  "frames (and runs); inside: the pixels that show the volume in the reference, "
+                  "outside its silhouette band; on the silhouette: the band (%.1f %% of the "
+                  "pixels counted here); the empty pixels away from the volume count in "
+                  "neither\n",
+        regionPixels
+          ? 100.0 * static_cast<double>(silhouettePixels) / static_cast<double>(regionPixels)
           : 0.0);
     }
     if (sequence == "switch")

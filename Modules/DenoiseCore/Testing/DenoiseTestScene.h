@@ -69,6 +69,12 @@ struct SceneState
   // the right eye (1 + eyeRadianceDifference / 2) times its radiance, references included, as
   // a specular lobe or the phase function makes the eyes see a point differently.
   float eyeRadianceDifference = 0.0f;
+  // Parallax at a silhouette: the left eye sees every point with this coverage (its pixel's
+  // alpha; each of the pixel's 2 paths scatters with this probability, the radiance
+  // premultiplied by the fraction that did), the right eye fully covered; references included.
+  // At a volume's edge each eye sees the edge from its own side, and the same point is covered
+  // to a different degree in each eye's pixel.
+  float leftEyeCoverage = 1.0f;
   glm::vec3 cameraPosition{ 0.0f, 0.0f, 8.0f }; // between the eyes, looking at -z
   float interpupillaryDistance = 0.3f;
   float focalDistance = 8.0f;
@@ -173,15 +179,22 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
         gradient = scene.wallGradient;
       }
       out.valid[i] = 1;
+      float coverage = 1.0f, alpha = 1.0f;
+      if (eye == 0 && scene.leftEyeCoverage < 1.0f)
+      {
+        std::bernoulli_distribution scatters(scene.leftEyeCoverage);
+        coverage = scene.leftEyeCoverage;
+        alpha = 0.5f * (static_cast<float>(scatters(rng)) + static_cast<float>(scatters(rng)));
+      }
       for (int c = 0; c < 3; ++c)
       {
         out.position[3 * i + c] = hit[c];
         out.albedo[3 * i + c] = albedo[c];
-        out.reference[4 * i + c] = radiance[c];
-        out.radiance[4 * i + c] = radiance[c] * noise;
+        out.reference[4 * i + c] = radiance[c] * coverage;
+        out.radiance[4 * i + c] = radiance[c] * noise * alpha;
       }
-      out.reference[4 * i + 3] = 1.0f;
-      out.radiance[4 * i + 3] = 1.0f;
+      out.reference[4 * i + 3] = coverage;
+      out.radiance[4 * i + 3] = alpha;
       for (int c = 0; c < 3; ++c)
       {
         out.normal[3 * i + c] = normal[c];

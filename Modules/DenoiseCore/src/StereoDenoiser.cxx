@@ -2331,17 +2331,19 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       const int count = span.end - span.begin;
       const bool blend = stereo && p.stereoBlend && count > 0;
       thread_local std::vector<float> scratch;
-      scratch.resize(static_cast<std::size_t>(blend ? count : 0) * 5);
+      scratch.resize(static_cast<std::size_t>(blend ? count : 0) * 6);
       float* __restrict depthMean = scratch.data();
       float* __restrict otherPixelX = scratch.data() + count;
       float* __restrict otherPixelY = scratch.data() + 2 * count;
       float* __restrict otherDepth = scratch.data() + 3 * count;
       float* __restrict otherOnScreen = scratch.data() + 4 * count;
+      float* __restrict ownSamples = scratch.data() + 5 * count;
       if (blend)
       {
         for (int k = 0; k < count; ++k)
         {
           depthMean[k] = eye.nextHistoryInfo[rowStart + span.begin + k].depthMean;
+          ownSamples[k] = eye.nextHistoryInfo[rowStart + span.begin + k].sampleCount;
         }
         const glm::mat4 inverse = inverseViewProjection[e];
         const glm::mat4 view = eye.view;
@@ -2386,7 +2388,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       // 14.1-15.0 with a pass per tap, before the loops were tuned for the CPU). The
       // later loops compute lambda and the blend for pixels without a consistent tap too, and
       // keep their own value.
-      constexpr int PlaneCount = 11; // the other eye's sums, their weight, its blend weight
+      constexpr int PlaneCount = 12; // the other eye's sums, their weight, its blend weight
       thread_local std::vector<float> planes;
       thread_local std::vector<float> tapWeights;
       thread_local std::vector<int> tapIndices;
@@ -2403,6 +2405,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       float* __restrict otherLuminanceSum = planes.data() + 7 * count;
       float* __restrict otherVarianceSum = planes.data() + 8 * count;
       float* __restrict tapWeightSum = planes.data() + 9 * count;
+      float* __restrict otherSampleSum = planes.data() + 11 * count;
       bilinearTapsOfRow(otherPixelX, otherPixelY, otherOnScreen, eye.surface.valid.data() + row,
         count, width, height, tapWeights.data(), tapIndices.data());
       {
@@ -2411,6 +2414,9 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           reinterpret_cast<const float*>(other.firstStep.data());
         const float* __restrict storedLuminance = other.filteredLuminance.data();
         const float* __restrict storedVariance = other.variance[source].data();
+        const float* __restrict storedInfo =
+          reinterpret_cast<const float*>(other.nextHistoryInfo.data());
+        constexpr int InfoStride = sizeof(HistoryInfo) / sizeof(float);
         const ExpectedSurfaceRow ownSurface = expectedSurfaceOf(eye.surface, row, p);
         // A pixel's four taps in one pass, the sums in registers.
         const int* __restrict index00 = tapIndices.data();
@@ -2426,7 +2432,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         {
           float red = 0.0f, green = 0.0f, blue = 0.0f, coverage = 0.0f;
           float albedoRedSum = 0.0f, albedoGreenSum = 0.0f, albedoBlueSum = 0.0f;
-          float luminanceSum = 0.0f, varianceSum = 0.0f, weightSum = 0.0f;
+          float luminanceSum = 0.0f, varianceSum = 0.0f, weightSum = 0.0f, sampleSum = 0.0f;
           const auto addTap = [&](int j, float w) HV_ALWAYS_INLINE
           {
             const std::uint32_t stored = static_cast<std::uint32_t>(j); // StoredSurfaces
@@ -2443,6 +2449,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
             albedoBlueSum += taken * storedSurfaces.albedoBlue[stored];
             luminanceSum += taken * storedLuminance[j];
             varianceSum += taken * storedVariance[j];
+            sampleSum += taken * storedInfo[InfoStride * j + 2]; // HistoryInfo::sampleCount
             weightSum += taken;
           };
           addTap(index00[k], weight00[k]);
@@ -2459,6 +2466,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           otherLuminanceSum[k] = luminanceSum;
           otherVarianceSum[k] = varianceSum;
           tapWeightSum[k] = weightSum;
+          otherSampleSum[k] = sampleSum;
         }
       }
 
@@ -2473,13 +2481,17 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       const float stereoAlpha = p.stereoAlpha;
       const float stereoBeta = p.stereoBeta;
       const float agreementWidth = p.stereoAgreementWidth;
+      const float coverageWidth = p.stereoCoverageWidth;
       // The other eye's weight in a loop of its own: with the blend in the same loop, GCC moves
       // this arithmetic under the choice between the blend and the own value, and no longer
-      // vectorises. Instantiated with and without the agreement (the paper's D2): GCC 12 does
-      // not vectorise a choice made on a flag that is the same for the whole loop.
-      const auto otherWeightRow = [&](auto withAgreement) HV_ALWAYS_INLINE
+      // vectorises. Instantiated with and without each test (neither: the paper's D2): GCC 12
+      // does not vectorise a choice made on a flag that is the same for the whole loop (with
+      // the coverage test chosen inside the loop D2 took 20 ms per 1440x936 stereo pair
+      // instead of 11).
+      const auto otherWeightRow = [&](auto withAgreement, auto withCoverage) HV_ALWAYS_INLINE
       {
         constexpr bool WithAgreement = decltype(withAgreement)::value;
+        constexpr bool WithCoverage = decltype(withCoverage)::value;
 #pragma GCC ivdep
         for (int k = 0; k < count; ++k)
         {
@@ -2497,16 +2509,25 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
             agreement = stereoAgreementTerm(ownLuminance[k] - otherLuminanceSum[k] / weightSum,
               ownVariance[k] + otherVarianceSum[k] / weightSum, agreementWidth);
           }
+          // The history's sample counts, not the filtered value's: the wavelet filter averages
+          // coverage only where it agrees (coverageSharpness), which is where this test looks.
+          if constexpr (WithCoverage)
+          {
+            agreement *= crossViewCoverageTerm(ownValue[k].w, ownSamples[k],
+              otherCoverage[k] / weightSum, otherSampleSum[k] / weightSum, coverageWidth);
+          }
           otherWeightOf[k] = (1.0f - lambda) * agreement;
         }
       };
+      using Yes = std::true_type;
+      using No = std::false_type;
       if (agreementWidth > 0.0f)
       {
-        otherWeightRow(std::true_type());
+        coverageWidth > 0.0f ? otherWeightRow(Yes(), Yes()) : otherWeightRow(Yes(), No());
       }
       else
       {
-        otherWeightRow(std::false_type());
+        coverageWidth > 0.0f ? otherWeightRow(No(), Yes()) : otherWeightRow(No(), No());
       }
 #pragma GCC ivdep
       for (int k = 0; k < count; ++k)
