@@ -183,8 +183,8 @@ struct Reference
 {
   std::vector<float> eye[2];
   Correspondences correspondingPixels;
-  // Each eye's SilhouetteBand, for the error inside the silhouette and on it.
-  std::vector<bool> silhouette[2];
+  // Each eye's PixelRegions, for the error inside the silhouette and on it.
+  std::vector<signed char> region[2];
 };
 
 // The expected first scatter depth of every pixel, averaged over the reference's frames (each
@@ -404,20 +404,32 @@ double SilhouetteBandFraction(const std::vector<float>& image, int width, int he
   return seen ? static_cast<double>(inBand) / static_cast<double>(seen) : 0.0;
 }
 
+// Where each pixel of a reference lies: 1 on the silhouette (its SilhouetteBand), 0 inside it
+// (it shows the volume, outside the band), -1 neither (it shows nothing and lies away from the
+// volume: its error is the same for every method that keeps the background black).
+std::vector<signed char> PixelRegions(const std::vector<float>& image, int width, int height)
+{
+  const std::vector<bool> band = SilhouetteBand(image, width, height);
+  std::vector<signed char> region(band.size());
+  for (std::size_t i = 0; i < band.size(); ++i)
+  {
+    region[i] = band[i] ? 1 : IsEmpty(image, i) ? -1 : 0;
+  }
+  return region;
+}
+
 // Marks the centred pairs on the silhouette of either eye's reference.
-void MarkSilhouettePairs(Correspondences& correspondences, const std::vector<bool> band[2])
+void MarkSilhouettePairs(Correspondences& correspondences, const std::vector<signed char> region[2])
 {
   correspondences.centredOnSilhouette.clear();
   for (const auto& [i, q] : correspondences.centredPairs)
   {
-    correspondences.centredOnSilhouette.push_back(band[0][i] || band[1][q]);
+    correspondences.centredOnSilhouette.push_back(region[0][i] == 1 || region[1][q] == 1);
   }
 }
 
-// The squared error of display values (summed over the channels) inside the silhouette (pixels
-// that show the volume in the reference, outside its SilhouetteBand) and on it (the band), and
-// how many pixels each holds. Pixels that show nothing and lie away from the volume count in
-// neither: their error is the same for every method that keeps the background black.
+// The squared error of display values (summed over the channels) inside the silhouette and on
+// it (PixelRegions 0 and 1), and how many pixels each holds.
 struct RegionSquares
 {
   double squared[2] = { 0.0, 0.0 }; // inside, on the silhouette
@@ -429,25 +441,23 @@ struct RegionSquares
   }
 };
 
-RegionSquares RegionSquaredErrors(const std::vector<float>& image,
-  const std::vector<float>& reference, const std::vector<bool>& band)
+// Adds an image's squared errors against its reference to `squares`.
+void AddRegionSquares(const std::vector<float>& image, const std::vector<float>& reference,
+  const std::vector<signed char>& region, RegionSquares& squares)
 {
-  RegionSquares squares;
-  for (std::size_t i = 0; i < band.size(); ++i)
+  for (std::size_t i = 0; i < region.size(); ++i)
   {
-    const int region = band[i] ? 1 : IsEmpty(reference, i) ? -1 : 0;
-    if (region < 0)
+    if (region[i] < 0)
     {
       continue;
     }
     for (int c = 0; c < 3; ++c)
     {
       const double d = image[3 * i + c] - reference[3 * i + c];
-      squares.squared[region] += d * d;
+      squares.squared[region[i]] += d * d;
     }
-    ++squares.pixels[region];
+    ++squares.pixels[region[i]];
   }
-  return squares;
 }
 
 // Display RGB (row 0 at the bottom) as an 8-bit BGR image, top row first.
@@ -788,9 +798,9 @@ int main(int argc, char* argv[])
       CorrespondingPixels(meanDepth, reference->GetEyeOutput(0), reference->GetEyeOutput(1));
     for (int e = 0; e < 2; ++e)
     {
-      out.silhouette[e] = SilhouetteBand(out.eye[e], options.Width, options.Height);
+      out.region[e] = PixelRegions(out.eye[e], options.Width, options.Height);
     }
-    MarkSilhouettePairs(out.correspondingPixels, out.silhouette);
+    MarkSilhouettePairs(out.correspondingPixels, out.region);
   };
 
   std::printf("# holovolume-denoise-evaluation\n\n%s under %s, %dx%d per eye, %d stereo frames "
@@ -1104,13 +1114,7 @@ int main(int argc, char* argv[])
           RegionSquares regionSquares;
           for (int e = 0; e < 2; ++e)
           {
-            const RegionSquares eyeSquares =
-              RegionSquaredErrors(display[e], references[e], current->silhouette[e]);
-            for (int region = 0; region < 2; ++region)
-            {
-              regionSquares.squared[region] += eyeSquares.squared[region];
-              regionSquares.pixels[region] += eyeSquares.pixels[region];
-            }
+            AddRegionSquares(display[e], references[e], current->region[e], regionSquares);
             psnr += 0.5 * hv::denoise::displayPSNR(display[e], references[e]);
             a.ssim += 0.5 * SSIM(display[e], references[e], options.Width, options.Height);
             if (!a.previous[e].empty())
@@ -1206,10 +1210,10 @@ int main(int argc, char* argv[])
             current->correspondingPixels.centredOnSilhouette.end(), true));
         for (int e = 0; e < 2; ++e)
         {
-          const RegionSquares counted =
-            RegionSquaredErrors(references[e], references[e], current->silhouette[e]);
-          silhouettePixels += counted.pixels[1];
-          regionPixels += counted.pixels[0] + counted.pixels[1];
+          const std::vector<signed char>& region = current->region[e];
+          silhouettePixels += static_cast<std::size_t>(std::count(region.begin(), region.end(), 1));
+          regionPixels +=
+            region.size() - static_cast<std::size_t>(std::count(region.begin(), region.end(), -1));
         }
         if (frame == thumbnailFrame)
         {

@@ -2416,7 +2416,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
         const float* __restrict storedVariance = other.variance[source].data();
         const float* __restrict storedInfo =
           reinterpret_cast<const float*>(other.nextHistoryInfo.data());
-        constexpr int InfoStride = sizeof(HistoryInfo) / sizeof(float);
+        constexpr int StoredSampleCount = offsetof(HistoryInfo, sampleCount) / sizeof(float);
         const ExpectedSurfaceRow ownSurface = expectedSurfaceOf(eye.surface, row, p);
         // A pixel's four taps in one pass, the sums in registers.
         const int* __restrict index00 = tapIndices.data();
@@ -2449,7 +2449,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
             albedoBlueSum += taken * storedSurfaces.albedoBlue[stored];
             luminanceSum += taken * storedLuminance[j];
             varianceSum += taken * storedVariance[j];
-            sampleSum += taken * storedInfo[InfoStride * j + 2]; // HistoryInfo::sampleCount
+            sampleSum += taken * storedInfo[temporal::HistoryInfoFloats * j + StoredSampleCount];
             weightSum += taken;
           };
           addTap(index00[k], weight00[k]);
