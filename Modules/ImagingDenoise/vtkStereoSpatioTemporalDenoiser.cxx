@@ -404,6 +404,7 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.stereoBeta = static_cast<float>(this->StereoBeta);
   p.stereoAgreementWidth = static_cast<float>(this->StereoAgreementWidth);
   p.stereoCoverageWidth = static_cast<float>(this->StereoCoverageWidth);
+  p.stereoUnpremultipliedBlend = this->StereoUnpremultipliedBlend;
 
   vtkImageData* outputs[2] = { vtkImageData::GetData(outputVector, 0),
     vtkImageData::GetData(outputVector, 1) };
@@ -495,5 +496,7 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "StereoBeta: " << this->StereoBeta << "\n";
   os << indent << "StereoAgreementWidth: " << this->StereoAgreementWidth << "\n";
   os << indent << "StereoCoverageWidth: " << this->StereoCoverageWidth << "\n";
+  os << indent
+     << "StereoUnpremultipliedBlend: " << (this->StereoUnpremultipliedBlend ? "On" : "Off") << "\n";
   os << indent << "LastFrameMilliseconds: " << this->Internals->LastMilliseconds << "\n";
 }

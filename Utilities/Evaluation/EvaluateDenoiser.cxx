@@ -91,19 +91,23 @@ control: the same frames denoised with a history gathered under the lamp all alo
 
 // The methods (the full denoiser with its defaults, which include the noise test of
 // the other eye's value in D2, vtkStereoSpatioTemporalDenoiser::SetStereoAgreementWidth, and
-// its coverage test, SetStereoCoverageWidth), then three ablations that the thumbnails leave
-// out: the paper's D2 without either test, the full denoiser whose wavelet filter averages
-// coverage like the colour (SetCoverageAgreementWidth), and the full denoiser whose D2 blends
-// whatever the coverages (the default before the coverage test).
-constexpr int MethodCount = 8;
+// its coverage test, SetStereoCoverageWidth, and its blend of coverage and colour apart,
+// SetStereoUnpremultipliedBlend), then four ablations that the thumbnails leave out: the
+// paper's D2 (neither test, premultiplied values), the full denoiser whose wavelet filter
+// averages coverage like the colour (SetCoverageAgreementWidth), the full denoiser whose D2
+// blends the premultiplied values whatever the coverages (the default before the coverage
+// test), and the one whose D2 blends the premultiplied values under its coverage test (the
+// default before the blend apart).
+constexpr int MethodCount = 9;
 constexpr int ThumbnailMethodCount = 5;
 constexpr int D1Method = 3; // the methods from here on have D1, and D2's figures compare with it
 constexpr int FullMethod = 4;
 constexpr int CoverageFilteredMethod = 6;
 constexpr int WithoutStereoCoverageMethod = 7;
+constexpr int PremultipliedStereoBlendMethod = 8;
 const char* MethodNames[MethodCount] = { "raw 2 spp", "spatial only", "temporal only", "D1",
   "D1 + D2 (full)", "D1 + D2, paper's lambda alone", "D1 + D2, coverage filtered like colour",
-  "D1 + D2, D2 without its coverage test" };
+  "D1 + D2, D2 without its coverage test", "D1 + D2, D2 blending premultiplied values" };
 
 std::vector<float> Display(vtkImageData* image)
 {
@@ -977,7 +981,10 @@ int main(int argc, char* argv[])
         run[3]->StereoBlendOff();
         run[5]->SetStereoAgreementWidth(0.0);
         run[5]->SetStereoCoverageWidth(0.0);
+        run[5]->StereoUnpremultipliedBlendOff();
         run[WithoutStereoCoverageMethod]->SetStereoCoverageWidth(0.0);
+        run[WithoutStereoCoverageMethod]->StereoUnpremultipliedBlendOff();
+        run[PremultipliedStereoBlendMethod]->StereoUnpremultipliedBlendOff();
         run[CoverageFilteredMethod]->SetCoverageAgreementWidth(0.0);
         for (int method = 0; method < MethodCount; ++method)
         {

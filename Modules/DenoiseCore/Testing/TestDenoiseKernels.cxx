@@ -392,6 +392,54 @@ TEST(DenoiseKernels, InlineExponentialMatchesLibm)
 // one standard deviation weighs e^(-1/(2k^2)), a silhouette's step of 1/2 (6.5 standard
 // deviations of a coverage of 3/4 over 32 frames) under 1 %; coverage at 0 or 1 has no noise
 // to forgive.
+TEST(DenoiseKernels, StereoBlendUnpremultiplied)
+{
+  const glm::vec3 colour(0.8f, 0.4f, 0.2f), otherColour(0.6f, 0.5f, 0.1f);
+  // Equal coverages: the premultiplied blend, whatever the colour weight equal to the
+  // coverage weight.
+  const glm::vec4 own(0.7f * colour, 0.7f), other(0.7f * otherColour, 0.7f);
+  const glm::vec4 equal = stereoBlendUnpremultiplied(own, other, 0.4f, 0.4f);
+  const glm::vec4 premultiplied = 0.6f * own + 0.4f * other;
+  for (int c = 0; c < 4; ++c)
+  {
+    EXPECT_NEAR(equal[c], premultiplied[c], 1e-6f);
+  }
+  // A silhouette seen from two sides: this eye 30 % covered, the other fully. With the
+  // coverage kept (weight 0) and the colours averaged, the pixel keeps its coverage and takes
+  // the mean colour.
+  const glm::vec4 edge(0.3f * colour, 0.3f), seenFully(otherColour, 1.0f);
+  const glm::vec4 kept = stereoBlendUnpremultiplied(edge, seenFully, 0.5f, 0.0f);
+  const glm::vec3 meanColour = 0.5f * (colour + otherColour);
+  EXPECT_FLOAT_EQ(kept.w, 0.3f);
+  for (int c = 0; c < 3; ++c)
+  {
+    EXPECT_NEAR(kept[c], 0.3f * meanColour[c], 1e-6f);
+  }
+  // Both weights 0: the own value, unchanged; both 1: the other's.
+  const glm::vec4 ownKept = stereoBlendUnpremultiplied(edge, seenFully, 0.0f, 0.0f);
+  const glm::vec4 otherTaken = stereoBlendUnpremultiplied(edge, seenFully, 1.0f, 1.0f);
+  for (int c = 0; c < 4; ++c)
+  {
+    EXPECT_NEAR(ownKept[c], edge[c], 1e-6f);
+    EXPECT_NEAR(otherTaken[c], seenFully[c], 1e-6f);
+  }
+  // Below the floor a colour is not estimated (its noise divided by a tiny coverage): the
+  // premultiplied values are blended with the coverage weight, and no value is infinite.
+  const glm::vec4 empty(0.0f, 0.0f, 0.0f, 0.0f);
+  const glm::vec4 fromEmpty = stereoBlendUnpremultiplied(empty, seenFully, 0.5f, 0.25f);
+  const glm::vec4 expected = 0.25f * seenFully;
+  for (int c = 0; c < 4; ++c)
+  {
+    EXPECT_FLOAT_EQ(fromEmpty[c], expected[c]);
+  }
+  const glm::vec4 grazing(0.005f * colour, 0.005f);
+  const glm::vec4 fromGrazing = stereoBlendUnpremultiplied(seenFully, grazing, 0.5f, 0.5f);
+  for (int c = 0; c < 4; ++c)
+  {
+    EXPECT_NEAR(fromGrazing[c], 0.5f * (seenFully[c] + grazing[c]), 1e-6f);
+  }
+}
+
 TEST(DenoiseKernels, CoverageSharpness)
 {
   EXPECT_EQ(coverageSharpness(0.5f, 32.0f, 0.0f), 0.0f);

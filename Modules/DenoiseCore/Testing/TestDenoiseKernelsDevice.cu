@@ -70,6 +70,7 @@ struct PixelWeights
   float agreement;
   float crossCoverage;
   // Arithmetic and libm's expf only.
+  glm::vec4 unpremultipliedBlend;
   float gate;
   float coverageSharpnessValue;
   float slack;
@@ -99,6 +100,10 @@ HV_FUNCTION PixelWeights evaluatePixel(const PixelCase& c)
     3.0f);
   w.crossCoverage = crossViewCoverage(
     c.coverage, c.frames, c.otherCoverage, c.otherFrames, c.coverageAgreementWidth);
+  // The radiance with this pixel's coverage against the neighbourhood mean with the other's,
+  // with weights in [0, 1] taken from the case itself, not from an exp: the same on both sides.
+  w.unpremultipliedBlend = stereoBlendUnpremultiplied(glm::vec4(glm::vec3(c.radiance), c.coverage),
+    glm::vec4(glm::vec3(c.mean), c.otherCoverage), c.subpixel, c.otherCoverage);
   w.gate = temporalGate(c.illuminationDifference, 20.0f, -1.25f);
   w.slack = depthSlack(c.centre.depthSpread, c.centre.gradientMagnitude, c.other.depthSpread,
     c.other.gradientMagnitude);
@@ -353,6 +358,7 @@ TEST(DenoiseKernelsDevice, PerPixelFunctionsMatchTheHost)
       cancelling.add(host.catmullRom[k], d.catmullRom[k], i);
       arithmetic.add(host.demodulated[k], d.demodulated[k], i);
       arithmetic.add(host.remodulated[k], d.remodulated[k], i);
+      arithmetic.add(host.unpremultipliedBlend[k], d.unpremultipliedBlend[k], i);
       cancelling.add(host.clamped[k], d.clamped[k], i);
     }
     positiveWeights += host.waveletWeight > 1e-3f ? 1 : 0;
@@ -383,7 +389,7 @@ TEST(DenoiseKernelsDevice, PerPixelFunctionsMatchTheHost)
     // its argument, up to 80, carries the contraction's rounding.
     { "w_v sigmoid", &gate, 2e-5f },
     // Products, sums and divisions (correctly rounded on both sides): FMA contraction alone.
-    { "demodulation, slack, coverage sharpness", &arithmetic, 1e-5f },
+    { "demodulation, slack, coverage sharpness, D2's unpremultiplied blend", &arithmetic, 1e-5f },
     { "catmull-rom weights, neighbourhood clamp (beyond 5e-7)", &cancelling, 1e-5f } };
   for (const Row& row : rows)
   {

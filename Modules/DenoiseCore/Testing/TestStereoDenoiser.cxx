@@ -684,8 +684,10 @@ TEST(StereoDenoiser, StereoAgreementKeepsViewDependentLight)
 // Where the eyes' pixels are covered to a different degree at the same point (the silhouette,
 // seen from two sides), the paper's D2 puts half of the other eye's coverage into each eye's
 // pixel; the coverage test (stereoCoverageWidth) keeps each eye's own, and where the
-// coverages agree it still averages the eyes' noise. The luminance noise test is off here, so
-// that the coverage test alone decides.
+// coverages agree it still averages the eyes' noise. Blending the premultiplied values, the
+// test holds back the other eye's colour with its coverage; blending them apart
+// (stereoUnpremultipliedBlend), the colour under the coverage is still averaged. The
+// luminance noise test is off here, so that the coverage test alone decides.
 TEST(StereoDenoiser, StereoCoverageTestKeepsEachEyesCoverage)
 {
   struct Result
@@ -693,7 +695,8 @@ TEST(StereoDenoiser, StereoCoverageTestKeepsEachEyesCoverage)
     double leftPSNR = 0.0;
     double discrepancy = 0.0;
   };
-  auto run = [](float leftEyeCoverage, bool stereoBlend, float coverageWidth)
+  auto run =
+    [](float leftEyeCoverage, bool stereoBlend, float coverageWidth, bool unpremultiplied = false)
   {
     hvtest::SceneState scene;
     scene.leftEyeCoverage = leftEyeCoverage;
@@ -701,6 +704,7 @@ TEST(StereoDenoiser, StereoCoverageTestKeepsEachEyesCoverage)
     denoiser.parameters().stereoBlend = stereoBlend;
     denoiser.parameters().stereoAgreementWidth = 0.0f;
     denoiser.parameters().stereoCoverageWidth = coverageWidth;
+    denoiser.parameters().stereoUnpremultipliedBlend = unpremultiplied;
     // D2 alone decides what each eye takes from the other (see
     // StereoAgreementKeepsViewDependentLight).
     denoiser.parameters().crossViewSamples = false;
@@ -727,9 +731,16 @@ TEST(StereoDenoiser, StereoCoverageTestKeepsEachEyesCoverage)
   // pixel's few paths happened to all scatter and the coverages agree within their noise).
   EXPECT_LT(blended.leftPSNR, d1.leftPSNR - 3.0);
   EXPECT_GT(tested.leftPSNR, d1.leftPSNR - 0.5);
+  EXPECT_TRUE(DenoiserParameters().stereoUnpremultipliedBlend);
+  const Result apart = run(0.6f, true, defaultWidth, true);
+  std::cout << "left eye covered 60 %, its PSNR with coverage and colour blended apart: "
+            << apart.leftPSNR << " dB\n";
+  // Measured 26.1 dB: the left pixels' colour noise is averaged with the right eye's, their
+  // coverage noise (each pixel's 2 paths) stays their own.
+  EXPECT_GT(apart.leftPSNR, tested.leftPSNR + 0.6);
 
   const Result sameD1 = run(1.0f, false, 0.0f);
-  const Result sameTested = run(1.0f, true, defaultWidth);
+  const Result sameTested = run(1.0f, true, defaultWidth, true);
   std::cout << "eyes covered alike, inter-eye discrepancy: D1 " << sameD1.discrepancy
             << ", D2 with the coverage test " << sameTested.discrepancy << "\n";
   // Measured 0.057 and 0.0019: where the coverages agree the test takes the other eye whole.

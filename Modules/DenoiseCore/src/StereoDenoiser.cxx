@@ -2388,7 +2388,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       // 14.1-15.0 with a pass per tap, before the loops were tuned for the CPU). The
       // later loops compute lambda and the blend for pixels without a consistent tap too, and
       // keep their own value.
-      constexpr int PlaneCount = 12; // the other eye's sums, their weight, its blend weight
+      constexpr int PlaneCount = 13; // the other eye's sums, their weight, its blend weights
       thread_local std::vector<float> planes;
       thread_local std::vector<float> tapWeights;
       thread_local std::vector<int> tapIndices;
@@ -2478,20 +2478,23 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
       const float* __restrict ownVariance = eye.variance[source].data() + row;
       float* __restrict outRow = out + 4 * row;
       float* __restrict otherWeightOf = planes.data() + 10 * count;
+      float* __restrict otherColourWeightOf = planes.data() + 12 * count;
       const float stereoAlpha = p.stereoAlpha;
       const float stereoBeta = p.stereoBeta;
       const float agreementWidth = p.stereoAgreementWidth;
       const float coverageWidth = p.stereoCoverageWidth;
-      // The other eye's weight in a loop of its own: with the blend in the same loop, GCC moves
-      // this arithmetic under the choice between the blend and the own value, and no longer
-      // vectorises. Instantiated with and without each test (neither: the paper's D2): GCC 12
-      // does not vectorise a choice made on a flag that is the same for the whole loop (with
-      // the coverage test chosen inside the loop D2 took 20 ms per 1440x936 stereo pair
-      // instead of 11).
-      const auto otherWeightRow = [&](auto withAgreement, auto withCoverage) HV_ALWAYS_INLINE
+      // The other eye's weights in a loop of their own: with the blend in the same loop, GCC
+      // moves this arithmetic under the choice between the blend and the own value, and no
+      // longer vectorises. Instantiated with and without each test (neither: the paper's D2)
+      // and for each blend: GCC 12 does not vectorise a choice made on a flag that is the same
+      // for the whole loop (with the coverage test chosen inside the loop D2 took 20 ms per
+      // 1440x936 stereo pair instead of 11, with the unpremultiplied blend 16 instead of 9).
+      const auto otherWeightRow = [&](auto withAgreement, auto withCoverage, auto unpremultiplied)
+                                    HV_ALWAYS_INLINE
       {
         constexpr bool WithAgreement = decltype(withAgreement)::value;
         constexpr bool WithCoverage = decltype(withCoverage)::value;
+        constexpr bool Unpremultiplied = decltype(unpremultiplied)::value;
 #pragma GCC ivdep
         for (int k = 0; k < count; ++k)
         {
@@ -2503,47 +2506,85 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           const float lambda =
             stereoBlendWeight(glm::vec3(albedoRed[k], albedoGreen[k], albedoBlue[k]), otherAlbedo,
               stereoAlpha, stereoBeta);
+          const float ownCoverage = ownValue[k].w;
+          const float otherCoverageMean = otherCoverage[k] / weightSum;
           float agreement = 1.0f;
-          if constexpr (WithAgreement)
+          if constexpr (WithAgreement && Unpremultiplied)
+          {
+            // The colours compared, not the premultiplied values: a coverage that differs is
+            // the coverage test's to judge. Luminance and variance scale with 1 / a and 1 / a^2.
+            const float ownScale = 1.0f / glm::max(ownCoverage, ColourCoverageFloor);
+            const float otherScale = 1.0f / glm::max(otherCoverageMean, ColourCoverageFloor);
+            agreement = stereoAgreementTerm(
+              ownLuminance[k] * ownScale - otherLuminanceSum[k] / weightSum * otherScale,
+              ownVariance[k] * ownScale * ownScale +
+                otherVarianceSum[k] / weightSum * otherScale * otherScale,
+              agreementWidth);
+          }
+          else if constexpr (WithAgreement)
           {
             agreement = stereoAgreementTerm(ownLuminance[k] - otherLuminanceSum[k] / weightSum,
               ownVariance[k] + otherVarianceSum[k] / weightSum, agreementWidth);
+          }
+          if constexpr (Unpremultiplied)
+          {
+            otherColourWeightOf[k] = (1.0f - lambda) * agreement;
           }
           // The history's sample counts, not the filtered value's: the wavelet filter averages
           // coverage only where it agrees (coverageSharpness), which is where this test looks.
           if constexpr (WithCoverage)
           {
-            agreement *= crossViewCoverageTerm(ownValue[k].w, ownSamples[k],
-              otherCoverage[k] / weightSum, otherSampleSum[k] / weightSum, coverageWidth);
+            agreement *= crossViewCoverageTerm(ownCoverage, ownSamples[k], otherCoverageMean,
+              otherSampleSum[k] / weightSum, coverageWidth);
           }
           otherWeightOf[k] = (1.0f - lambda) * agreement;
         }
       };
+      const auto blendRow = [&](auto unpremultiplied) HV_ALWAYS_INLINE
+      {
+        constexpr bool Unpremultiplied = decltype(unpremultiplied)::value;
+#pragma GCC ivdep
+        for (int k = 0; k < count; ++k)
+        {
+          const glm::vec4 value = ownValue[k];
+          const float weightSum = tapWeightSum[k];
+          const float otherWeight = otherWeightOf[k];
+          const glm::vec4 otherValue =
+            glm::vec4(otherRed[k], otherGreen[k], otherBlue[k], otherCoverage[k]) / weightSum;
+          glm::vec4 blended;
+          if constexpr (Unpremultiplied)
+          {
+            blended =
+              stereoBlendUnpremultiplied(value, otherValue, otherColourWeightOf[k], otherWeight);
+          }
+          else
+          {
+            blended = (1.0f - otherWeight) * value + otherWeight * otherValue;
+          }
+          const bool useOther = weightSum > 0.05f;
+          outRow[4 * k] = useOther ? blended.x : value.x;
+          outRow[4 * k + 1] = useOther ? blended.y : value.y;
+          outRow[4 * k + 2] = useOther ? blended.z : value.z;
+          outRow[4 * k + 3] = useOther ? blended.w : value.w;
+        }
+      };
       using Yes = std::true_type;
       using No = std::false_type;
-      if (agreementWidth > 0.0f)
+      const auto weighAndBlend = [&](auto unpremultiplied) HV_ALWAYS_INLINE
       {
-        coverageWidth > 0.0f ? otherWeightRow(Yes(), Yes()) : otherWeightRow(Yes(), No());
-      }
-      else
-      {
-        coverageWidth > 0.0f ? otherWeightRow(No(), Yes()) : otherWeightRow(No(), No());
-      }
-#pragma GCC ivdep
-      for (int k = 0; k < count; ++k)
-      {
-        const glm::vec4 value = ownValue[k];
-        const float weightSum = tapWeightSum[k];
-        const float otherWeight = otherWeightOf[k];
-        const glm::vec4 otherValue =
-          glm::vec4(otherRed[k], otherGreen[k], otherBlue[k], otherCoverage[k]) / weightSum;
-        const glm::vec4 blended = (1.0f - otherWeight) * value + otherWeight * otherValue;
-        const bool useOther = weightSum > 0.05f;
-        outRow[4 * k] = useOther ? blended.x : value.x;
-        outRow[4 * k + 1] = useOther ? blended.y : value.y;
-        outRow[4 * k + 2] = useOther ? blended.z : value.z;
-        outRow[4 * k + 3] = useOther ? blended.w : value.w;
-      }
+        if (agreementWidth > 0.0f)
+        {
+          coverageWidth > 0.0f ? otherWeightRow(Yes(), Yes(), unpremultiplied)
+                               : otherWeightRow(Yes(), No(), unpremultiplied);
+        }
+        else
+        {
+          coverageWidth > 0.0f ? otherWeightRow(No(), Yes(), unpremultiplied)
+                               : otherWeightRow(No(), No(), unpremultiplied);
+        }
+        blendRow(unpremultiplied);
+      };
+      p.stereoUnpremultipliedBlend ? weighAndBlend(Yes()) : weighAndBlend(No());
     });
   this->Statistics.milliseconds[4] = millisecondsSince(stageStart);
 

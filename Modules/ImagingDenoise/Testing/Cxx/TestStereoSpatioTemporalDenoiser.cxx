@@ -104,6 +104,30 @@ int TestStereoSpatioTemporalDenoiser(int, char*[])
   }
   denoiser->SetLuminanceSigma(4.0);
 
+  // The setter reaches D2: blending the premultiplied values changes the sphere's partly
+  // covered silhouette pixels, and switching back gives the same frame to the bit.
+  denoiser->Update();
+  const std::vector<float> apart = Display(denoiser->GetEyeOutput(0));
+  denoiser->StereoUnpremultipliedBlendOff();
+  denoiser->Update();
+  const std::vector<float> premultiplied = Display(denoiser->GetEyeOutput(0));
+  denoiser->StereoUnpremultipliedBlendOn();
+  denoiser->Update();
+  const std::vector<float> apartAgain = Display(denoiser->GetEyeOutput(0));
+  int changed = 0;
+  for (std::size_t i = 0; i < apart.size(); ++i)
+  {
+    changed += apart[i] != premultiplied[i] ? 1 : 0;
+  }
+  std::cout << "D2 blending premultiplied values changes " << changed << " of " << apart.size()
+            << " display values\n";
+  if (changed == 0 || apartAgain != apart)
+  {
+    std::cerr << "FAILED: StereoUnpremultipliedBlend does not reach D2, or switching it back "
+                 "does not restore the frame\n";
+    ++failures;
+  }
+
   // 2. The volume jumps 6 units sideways (about 12 pixels).
   std::vector<float> before = Display(denoiser->GetEyeOutput(0));
   vtkNew<vtkMatrix4x4> shift;

@@ -264,6 +264,31 @@ HV_FUNCTION float stereoBlendWeight(
   return clampf(lambda, 0.0f, 1.0f);
 }
 
+// Below this coverage a pixel's colour (radiance / coverage) is not estimated: a pixel that a
+// hundredth of its paths hit divides its noise by a hundredth.
+constexpr float ColourCoverageFloor = 0.01f;
+
+// D2's blend of two premultiplied RGBA values (radiance premultiplied by coverage, alpha the
+// coverage) with coverage and colour apart: the coverage with weight otherCoverageWeight, the
+// colour under it (rgb / alpha) with otherColourWeight, and the result premultiplied again.
+// At the silhouette each eye sees the edge from its own side, so the point's coverage differs
+// between the eyes for real while the tissue's colour there is the same; a blend of the
+// premultiplied values could take both only together. Where either coverage is below
+// ColourCoverageFloor, the premultiplied values are blended with otherCoverageWeight.
+HV_FUNCTION glm::vec4 stereoBlendUnpremultiplied(
+  const glm::vec4& own, const glm::vec4& other, float otherColourWeight, float otherCoverageWeight)
+{
+  const glm::vec4 premultiplied = (1.0f - otherCoverageWeight) * own + otherCoverageWeight * other;
+  const glm::vec3 colour =
+    (1.0f - otherColourWeight) * glm::vec3(own) / glm::max(own.w, ColourCoverageFloor) +
+    otherColourWeight * glm::vec3(other) / glm::max(other.w, ColourCoverageFloor);
+  const glm::vec3 recovered = premultiplied.w * colour;
+  // Selects per channel, not a branch, so that a row's loop vectorises.
+  const bool covered = (own.w > ColourCoverageFloor) & (other.w > ColourCoverageFloor);
+  return glm::vec4(covered ? recovered.x : premultiplied.x, covered ? recovered.y : premultiplied.y,
+    covered ? recovered.z : premultiplied.z, premultiplied.w);
+}
+
 // How far D2 may blend the other eye at a point, beyond the paper's lambda: e^(-d^2 / (2 k^2
 // v)), d the difference of the eyes' filtered luminances there, v the sum of their
 // variances, k = agreementWidth (0: always 1, the paper's D2). Noise differs between the eyes
