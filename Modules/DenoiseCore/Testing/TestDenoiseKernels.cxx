@@ -388,10 +388,9 @@ TEST(DenoiseKernels, InlineExponentialMatchesLibm)
   EXPECT_EQ(waveletWeight(centre, centre, 1.0f, 1.0f + 31.0f, 1.0f, edges), 0.0f);
 }
 
-// The coverage edge-stopping: off at width 0; a translucent neighbour whose coverage differs by
-// one standard deviation weighs e^(-1/(2k^2)), a silhouette's step of 1/2 (6.5 standard
-// deviations of a coverage of 3/4 over 32 frames) under 1 %; coverage at 0 or 1 has no noise
-// to forgive.
+// D2's blend of coverage and colour apart: the premultiplied blend where the coverages are
+// equal, each eye's own coverage with the mean colour at a silhouette, and no colour estimated
+// below ColourCoverageFloor.
 TEST(DenoiseKernels, StereoBlendUnpremultiplied)
 {
   const glm::vec3 colour(0.8f, 0.4f, 0.2f), otherColour(0.6f, 0.5f, 0.1f);
@@ -440,6 +439,10 @@ TEST(DenoiseKernels, StereoBlendUnpremultiplied)
   }
 }
 
+// The coverage edge-stopping: off at width 0; a translucent neighbour whose coverage differs by
+// one standard deviation weighs e^(-1/(2k^2)), a silhouette's step of 1/2 (6.5 standard
+// deviations of a coverage of 3/4 over 32 frames) under 1 %; coverage at 0 or 1 has no noise
+// to forgive.
 TEST(DenoiseKernels, CoverageSharpness)
 {
   EXPECT_EQ(coverageSharpness(0.5f, 32.0f, 0.0f), 0.0f);
