@@ -80,6 +80,7 @@ struct RenderSettings
   double DensityScale;
   double SurfaceScatteringFactor;
   vtkTypeUInt32 Seed;
+  bool StratifiedSubpixelSamples;
   double EnvironmentRadiance[3];
   double EnvironmentIntensity;
   bool EnvironmentVisible;
@@ -658,6 +659,7 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
   scene.maximumBounces = self->GetMaximumBounces();
   scene.rouletteStartBounce = self->GetRussianRouletteStartBounce();
   scene.secondaryRayRoulette = static_cast<float>(self->GetSecondaryRayRoulette());
+  scene.stratifiedSubpixelSamples = self->GetStratifiedSubpixelSamples();
   scene.anisotropy = static_cast<float>(self->GetAnisotropy());
   scene.environmentVisible = self->GetEnvironmentVisible();
   double spacing[3];
@@ -689,6 +691,7 @@ RenderSettings CurrentSettings(vtkPathTracedVolumeMapper* self)
   settings.DensityScale = self->GetDensityScale();
   settings.SurfaceScatteringFactor = self->GetSurfaceScatteringFactor();
   settings.Seed = self->GetSeed();
+  settings.StratifiedSubpixelSamples = self->GetStratifiedSubpixelSamples();
   self->GetEnvironmentRadiance(settings.EnvironmentRadiance);
   settings.EnvironmentIntensity = self->GetEnvironmentIntensity();
   settings.EnvironmentVisible = self->GetEnvironmentVisible();
@@ -1246,6 +1249,8 @@ void vtkPathTracedVolumeMapper::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "DensityScale: " << this->DensityScale << "\n";
   os << indent << "SurfaceScatteringFactor: " << this->SurfaceScatteringFactor << "\n";
   os << indent << "Seed: " << this->Seed << "\n";
+  os << indent << "StratifiedSubpixelSamples: " << (this->StratifiedSubpixelSamples ? "On" : "Off")
+     << "\n";
   os << indent << "ProgressiveAccumulation: " << (this->ProgressiveAccumulation ? "On" : "Off")
      << "\n";
   os << indent << "FrameIndex: " << this->FrameIndex << "\n";

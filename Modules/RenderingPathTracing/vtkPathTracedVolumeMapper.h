@@ -167,6 +167,20 @@ public:
 
   ///@{
   /**
+   * Where a pixel's samples enter it. On: each pixel follows its own randomly rotated R2
+   * sequence over the frames (FrameIndex x SamplesPerPixel + sample), so that the samples of
+   * consecutive frames cover the pixel evenly and edges that cross a pixel (the volume's
+   * silhouette) converge faster, in progressive accumulation and in a denoiser's history alike;
+   * each sample is still uniform over its pixel, so nothing is biased. Off: independent uniform
+   * positions. Both draw the same random numbers for everything else. Default on.
+   */
+  vtkSetMacro(StratifiedSubpixelSamples, bool);
+  vtkGetMacro(StratifiedSubpixelSamples, bool);
+  vtkBooleanMacro(StratifiedSubpixelSamples, bool);
+  ///@}
+
+  ///@{
+  /**
    * Progressive rendering: while camera, data, property, lights, environment and settings stay
    * unchanged, each frame's samples are averaged with the earlier ones. On by default.
    */
@@ -374,6 +388,7 @@ protected:
   double DensityScale = 1.0;
   double SurfaceScatteringFactor = 5.0;
   vtkTypeUInt32 Seed = 0;
+  bool StratifiedSubpixelSamples = true;
   bool ProgressiveAccumulation = true;
   vtkTypeUInt32 FrameIndex = 0;
   vtkMatrix4x4* EnvironmentToWorldMatrix;

@@ -55,6 +55,7 @@ struct Options
   int SwitchRuns = 4;
   int WaveletLevels = -1; // the denoiser's default
   int WaveletLongHistory = -1; // the denoiser's default
+  int StratifiedSubpixelSamples = -1; // the mapper's default
 };
 
 void Usage()
@@ -85,6 +86,11 @@ control: the same frames denoised with a history gathered under the lamp all alo
                          frames of history from which a pixel skips the wavelet filter's last
                          level, in every denoiser, 0 to 1000 [the denoiser's default, 4]; 0:
                          every pixel takes every level (holovolume-denoise-benchmark times both)
+  --subpixel-samples random|stratified
+                         where every render's samples enter their pixels (raw frames,
+                         references, the raw-spp curve): independent uniform positions, or each
+                         pixel's rotated R2 sequence over the frames [the mapper's default,
+                         vtkPathTracedVolumeMapper::SetStratifiedSubpixelSamples]
   --help                 this text
 )";
 }
@@ -689,6 +695,18 @@ int main(int argc, char* argv[])
     else if (arg == "--wavelet-long-history")
       options.WaveletLongHistory =
         holovolume::IntegerOption(program, "--wavelet-long-history", value(), 0, 1000);
+    else if (arg == "--subpixel-samples")
+    {
+      const std::string choice = value();
+      if (choice != "random" && choice != "stratified")
+      {
+        std::cerr << "holovolume-denoise-evaluation: --subpixel-samples wants random or "
+                     "stratified, not '"
+                  << choice << "'\n";
+        return 2;
+      }
+      options.StratifiedSubpixelSamples = choice == "stratified" ? 1 : 0;
+    }
     else
     {
       std::cerr << "holovolume-denoise-evaluation: unknown option '" << arg << "'; see --help\n";
@@ -726,6 +744,15 @@ int main(int argc, char* argv[])
   {
     m->SetInputData(volumeData);
     m->SetEnvironmentToWorldMatrix(environmentToWorld);
+  }
+  if (options.StratifiedSubpixelSamples < 0)
+  {
+    options.StratifiedSubpixelSamples = raw->GetStratifiedSubpixelSamples() ? 1 : 0;
+  }
+  for (vtkPathTracedVolumeMapper* m :
+    { raw.Get(), twin.Get(), reference.Get(), lampAllAlong.Get() })
+  {
+    m->SetStratifiedSubpixelSamples(options.StratifiedSubpixelSamples != 0);
   }
   raw->ProgressiveAccumulationOff();
   twin->ProgressiveAccumulationOff();
@@ -812,6 +839,9 @@ int main(int argc, char* argv[])
               "sRGB); both eyes, averaged over frames; threads=%d\n",
     options.Volume.c_str(), options.Environment.c_str(), options.Width, options.Height,
     options.Frames, options.ReferenceSamples, vtkSMPTools::GetEstimatedNumberOfThreads());
+  std::printf("\nsubpixel samples of every render: %s\n",
+    options.StratifiedSubpixelSamples ? "stratified (each pixel's rotated R2 sequence)"
+                                      : "random (independent uniform positions)");
   if (options.WaveletLevels >= 0)
   {
     std::printf("\nwavelet levels of every denoiser: %d\n", options.WaveletLevels);
@@ -847,6 +877,7 @@ int main(int argc, char* argv[])
     curve->SetEnvironmentToWorldMatrix(environmentToWorld);
     curve->SetEnvironmentMapData(baseEnvironment);
     curve->SetSeed(104729);
+    curve->SetStratifiedSubpixelSamples(options.StratifiedSubpixelSamples != 0);
     vtkNew<vtkVolume> curveVolume;
     curveVolume->SetMapper(curve);
     curveVolume->SetProperty(property);

@@ -538,3 +538,84 @@ TEST(Render, SecondaryRayRouletteIsUnbiased)
   }
   EXPECT_LT(perPath[2].variance(), 1.4 * perPath[0].variance());
 }
+
+// Stratified subpixel samples (SceneView::stratifiedSubpixelSamples) at a silhouette: a ball
+// dense enough that its edge is sharp within a pixel (sigmaT = 1000 s, some 40 optical depths
+// across the boundary voxel), so that a silhouette pixel's coverage noise is where its rays
+// enter. Over the pixels whose converged coverage lies in (0.05, 0.95), 32 consecutive frames
+// of 2 spp (as a history or a progressive sum holds them) estimate the coverage with an RMS
+// error below 0.6 of independent uniform positions' (the same paths' random numbers
+// otherwise), a single frame no worse, and the mean error within 5 standard errors of 0: the
+// positions are stratified, not biased. The converged coverage is of 4096 uniform samples (its
+// own RMS error, about 0.008, counts in both figures).
+TEST(Render, StratifiedSubpixelSamplesResolveTheSilhouetteSooner)
+{
+  hv::VolumeGrid grid;
+  makeBall(grid, glm::vec3(0.8f));
+  grid.setTransferFunction({ 0.0f, 1.0f - std::exp(-1.0f) }, { 0.8f, 0.8f, 0.8f, 0.8f, 0.8f, 0.8f },
+    0.001f, 1.0f);
+  hv::EnvironmentMap environment;
+  environment.setUniformRadiance(FurnaceRadiance);
+  hv::SceneView scene = furnaceScene(grid, environment);
+  scene.environmentVisible = false;
+  scene.maximumBounces = 1;
+  const hv::EyeView eye =
+    makeEye(glm::lookAt(glm::vec3(0.0f, 0.3f, 2.5f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
+      glm::perspective(glm::radians(30.0f), 1.0f, 0.1f, 10.0f), 32, 32);
+  const int frames = 32, samplesPerPixel = 2;
+  RunningStats stratifiedError;
+  double squares[2] = { 0.0, 0.0 }, frameSquares[2] = { 0.0, 0.0 };
+  int silhouettePixels = 0;
+  for (int y = 0; y < eye.height; ++y)
+  {
+    for (int x = 0; x < eye.width; ++x)
+    {
+      // Only pixels whose centre ray passes within 1.5 pixels (0.063) of the ball's edge
+      // (radius 9 voxels, 0.391, about the origin) can be partly covered.
+      glm::vec3 origin, direction;
+      float length;
+      eye.generateRay(x + 0.5f, y + 0.5f, origin, direction, length);
+      const float distance = glm::length(glm::cross(-origin, glm::normalize(direction)));
+      if (std::abs(distance - 0.391f) > 0.063f)
+      {
+        continue;
+      }
+      scene.stratifiedSubpixelSamples = false;
+      const float converged = hv::renderPixel(scene, eye, x, y, 0u, 1000u, 77u, 4096).radiance.w;
+      if (!(converged > 0.05f && converged < 0.95f))
+      {
+        continue;
+      }
+      ++silhouettePixels;
+      for (int stratified = 0; stratified < 2; ++stratified)
+      {
+        scene.stratifiedSubpixelSamples = stratified != 0;
+        double sum = 0.0;
+        for (int frame = 0; frame < frames; ++frame)
+        {
+          const float coverage = hv::renderPixel(scene, eye, x, y, 0u,
+            static_cast<std::uint32_t>(40 + frame), 5u, samplesPerPixel).radiance.w;
+          sum += coverage;
+          frameSquares[stratified] += (coverage - converged) * (coverage - converged);
+        }
+        const double error = sum / frames - converged;
+        squares[stratified] += error * error;
+        if (stratified)
+        {
+          stratifiedError.add(error);
+        }
+      }
+    }
+  }
+  ASSERT_GT(silhouettePixels, 40);
+  const double uniformRms = std::sqrt(squares[0] / silhouettePixels);
+  const double stratifiedRms = std::sqrt(squares[1] / silhouettePixels);
+  std::printf("[ info ] %d silhouette pixels; coverage RMS error over %d frames of %d spp: %.4f "
+              "uniform, %.4f stratified (%.1fx); per frame %.4f and %.4f; mean error %.5f\n",
+    silhouettePixels, frames, samplesPerPixel, uniformRms, stratifiedRms,
+    uniformRms / stratifiedRms, std::sqrt(frameSquares[0] / (silhouettePixels * frames)),
+    std::sqrt(frameSquares[1] / (silhouettePixels * frames)), stratifiedError.mean());
+  EXPECT_LT(stratifiedRms, 0.6 * uniformRms);
+  EXPECT_LT(frameSquares[1], 1.1 * frameSquares[0]);
+  EXPECT_NEAR(stratifiedError.mean(), 0.0, 5.0 * stratifiedError.standardError());
+}

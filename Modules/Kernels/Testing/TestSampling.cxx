@@ -162,6 +162,136 @@ TEST(Random, NextFloatIsUniformOnHalfOpenUnitInterval)
   EXPECT_LT(static_cast<float>(0xffffffu) * (1.0f / 16777216.0f), 1.0f);
 }
 
+// The subpixel sequence (SubpixelSequence): for any fixed sample index, the position over
+// pixels is uniform on the pixel in both coordinates and the two are uncorrelated, so every
+// sample on its own is distributed as an independent uniform one (nothing is biased).
+TEST(SubpixelSequence, EachSampleIsUniformOverThePixel)
+{
+  const std::uint32_t pixels = 20000;
+  for (std::uint32_t sampleIndex : { 0u, 1u, 7u, 123457u, 4000000000u })
+  {
+    std::vector<double> xs, ys;
+    double sx = 0.0, sy = 0.0, sxx = 0.0, syy = 0.0, sxy = 0.0;
+    for (std::uint32_t pixel = 0; pixel < pixels; ++pixel)
+    {
+      const glm::vec2 offset =
+        hv::subpixelOffset(hv::makeSubpixelSequence(pixel, pixel % 2u, 5u), sampleIndex);
+      ASSERT_GE(offset.x, 0.0f);
+      ASSERT_LT(offset.x, 1.0f);
+      ASSERT_GE(offset.y, 0.0f);
+      ASSERT_LT(offset.y, 1.0f);
+      xs.push_back(offset.x);
+      ys.push_back(offset.y);
+      sx += offset.x;
+      sy += offset.y;
+      sxx += offset.x * offset.x;
+      syy += offset.y * offset.y;
+      sxy += offset.x * offset.y;
+    }
+    EXPECT_LT(ksDistance(xs), ksCritical(pixels)) << "sample " << sampleIndex;
+    EXPECT_LT(ksDistance(ys), ksCritical(pixels)) << "sample " << sampleIndex;
+    const double n = pixels;
+    const double r = (sxy / n - sx / n * sy / n) /
+      std::sqrt((sxx / n - sx / n * sx / n) * (syy / n - sy / n * sy / n));
+    EXPECT_LT(std::abs(r), 5.0 / std::sqrt(n)) << "sample " << sampleIndex;
+  }
+}
+
+// The same pixel, eye and seed give the same sequence; another pixel, eye or seed another one.
+TEST(SubpixelSequence, DependsOnPixelEyeAndSeedOnly)
+{
+  const hv::SubpixelSequence a = hv::makeSubpixelSequence(17u, 1u, 99u);
+  const hv::SubpixelSequence b = hv::makeSubpixelSequence(17u, 1u, 99u);
+  EXPECT_EQ(hv::subpixelOffset(a, 1000u), hv::subpixelOffset(b, 1000u));
+  std::set<std::pair<std::uint32_t, std::uint32_t>> rotations;
+  for (const hv::SubpixelSequence s : { a, hv::makeSubpixelSequence(18u, 1u, 99u),
+         hv::makeSubpixelSequence(17u, 0u, 99u), hv::makeSubpixelSequence(17u, 1u, 100u) })
+  {
+    rotations.insert({ s.rotationX, s.rotationY });
+  }
+  EXPECT_EQ(rotations.size(), 4u);
+}
+
+// What the sequence is for: a pixel crossed by an edge. Its coverage (the area of the unit
+// square on the edge's bright side) estimated from N consecutive samples, starting anywhere in
+// the sequence as a denoiser's history or a progressive sum does, against N independent uniform
+// samples. Over 4000 pixels (rotations) and edges at five angles and offsets: the stratified
+// estimate's mean error is within 5 standard errors of 0 (unbiased); its RMS error is no worse
+// than the uniform samples' at N = 2 (one frame; measured 1.0-1.2x better), below 0.6 of it at
+// N = 64 (measured 2.0-3.2x better) and below 0.35 at N = 256 (3.7-6.0x); and from 64 to 256
+// samples it falls by more than 2.5x, where 1/sqrt(N) would give 2x (measured 2.9-4.4x).
+TEST(SubpixelSequence, ConsecutiveSamplesStratifyAnEdge)
+{
+  struct Edge
+  {
+    double angle; // of the edge's normal, radians
+    double offset; // signed distance of the edge from the pixel's centre
+  };
+  const Edge edges[] = { { 0.3, 0.0 }, { 1.1, 0.2 }, { 2.0, -0.3 }, { 0.785398, 0.05 },
+    { 2.9, 0.41 } };
+  const std::uint32_t pixels = 4000;
+  for (const Edge& edge : edges)
+  {
+    const double nx = std::cos(edge.angle), ny = std::sin(edge.angle);
+    auto bright = [&](double x, double y)
+    { return (x - 0.5) * nx + (y - 0.5) * ny > edge.offset ? 1.0 : 0.0; };
+    // The exact coverage, by the midpoint rule on a 2048 x 2048 grid (an error of ~1e-4 at
+    // most for a straight edge, far below the estimates' errors).
+    double coverage = 0.0;
+    const int grid = 2048;
+    for (int i = 0; i < grid; ++i)
+    {
+      for (int j = 0; j < grid; ++j)
+      {
+        coverage += bright((i + 0.5) / grid, (j + 0.5) / grid);
+      }
+    }
+    coverage /= static_cast<double>(grid) * grid;
+    double previousRms = 0.0;
+    for (std::uint32_t count : { 2u, 64u, 256u })
+    {
+      RunningStats stratifiedError, uniformError;
+      double stratifiedSquares = 0.0, uniformSquares = 0.0;
+      for (std::uint32_t pixel = 0; pixel < pixels; ++pixel)
+      {
+        const hv::SubpixelSequence sequence = hv::makeSubpixelSequence(pixel, 0u, 31u);
+        hv::Pcg32 rng = hv::makePixelRng(pixel, 0u, 0u, 31u);
+        // Windows that start at different frames of a 2-spp sequence, far from 0 for some.
+        const std::uint32_t first = 2u * (pixel * 7919u);
+        double stratified = 0.0, uniform = 0.0;
+        for (std::uint32_t k = 0; k < count; ++k)
+        {
+          const glm::vec2 offset = hv::subpixelOffset(sequence, first + k);
+          stratified += bright(offset.x, offset.y);
+          const double u = rng.nextFloat();
+          uniform += bright(rng.nextFloat(), u);
+        }
+        const double e1 = stratified / count - coverage, e2 = uniform / count - coverage;
+        stratifiedError.add(e1);
+        uniformError.add(e2);
+        stratifiedSquares += e1 * e1;
+        uniformSquares += e2 * e2;
+      }
+      const double stratifiedRms = std::sqrt(stratifiedSquares / pixels);
+      const double uniformRms = std::sqrt(uniformSquares / pixels);
+      std::printf("edge at %.2f rad, offset %+.2f (coverage %.3f), %u samples: RMS error %.4f "
+                  "stratified, %.4f uniform (%.1fx)\n",
+        edge.angle, edge.offset, coverage, count, stratifiedRms, uniformRms,
+        uniformRms / stratifiedRms);
+      EXPECT_LT(std::abs(stratifiedError.mean()), 5.0 * stratifiedError.standardError() + 1e-4)
+        << "angle " << edge.angle << ", " << count << " samples";
+      const double bound = count == 2 ? 1.05 : count == 64 ? 0.6 : 0.35;
+      EXPECT_LT(stratifiedRms, bound * uniformRms)
+        << "angle " << edge.angle << ", " << count << " samples";
+      if (count == 256)
+      {
+        EXPECT_LT(stratifiedRms, previousRms / 2.5) << "angle " << edge.angle;
+      }
+      previousRms = stratifiedRms;
+    }
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Sampling
 // ---------------------------------------------------------------------------------------------

@@ -58,6 +58,46 @@ HV_FUNCTION Pcg32 makePixelRng(
   rng.nextUInt();
   return rng;
 }
+
+// Subpixel positions stratified over frames. The n-th sample of a pixel, counted over all its
+// frames (frame * samplesPerPixel + s), sits at frac(rotation + n * alpha) with alpha = (1/p,
+// 1/p^2), p = 1.3247... the plastic number: the R2 sequence (Roberts 2018, "The unreasonable
+// effectiveness of quasirandom sequences"), rotated per pixel by a random offset
+// (Cranley-Patterson). For a fixed n the position is uniform over the pixel, since the rotation is,
+// so every estimate stays unbiased. Any run of consecutive points is the first points shifted by
+// a constant, so whichever frames a progressive sum or the denoiser's history holds, their
+// positions cover the pixel evenly: where an edge crosses the pixel its coverage converges
+// about like 1/N instead of 1/sqrt(N) (TestSampling's SubpixelSequence tests measure it). The
+// rotation depends on the pixel, eye and seed but not the frame, and the arithmetic is 32-bit
+// fixed point, in which n * alpha wraps modulo 1 exactly for every n.
+struct SubpixelSequence
+{
+  std::uint32_t rotationX;
+  std::uint32_t rotationY;
+};
+
+HV_FUNCTION SubpixelSequence makeSubpixelSequence(
+  std::uint32_t pixelIndex, std::uint32_t eye, std::uint64_t seed)
+{
+  // A key of its own (no frame in it), hashed apart from makePixelRng's keys.
+  const std::uint64_t key = mix64(mix64(seed ^ 0x2545f4914f6cdd1dULL) ^
+    mix64((static_cast<std::uint64_t>(eye) << 32) | pixelIndex));
+  SubpixelSequence sequence;
+  sequence.rotationX = static_cast<std::uint32_t>(key);
+  sequence.rotationY = static_cast<std::uint32_t>(key >> 32);
+  return sequence;
+}
+
+// The sample's offset in [0, 1)^2 from the pixel's corner.
+HV_FUNCTION glm::vec2 subpixelOffset(const SubpixelSequence& sequence, std::uint32_t sampleIndex)
+{
+  constexpr std::uint32_t alphaX = 3242174889u; // round(2^32 / p)
+  constexpr std::uint32_t alphaY = 2447445414u; // round(2^32 / p^2)
+  const std::uint32_t x = sequence.rotationX + sampleIndex * alphaX;
+  const std::uint32_t y = sequence.rotationY + sampleIndex * alphaY;
+  // The top 24 bits, as Pcg32::nextFloat: exactly representable, below 1.
+  return glm::vec2(static_cast<float>(x >> 8), static_cast<float>(y >> 8)) * (1.0f / 16777216.0f);
+}
 }
 
 #endif

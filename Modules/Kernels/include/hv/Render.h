@@ -6,6 +6,7 @@
 #include "hv/Camera.h"
 #include "hv/Environment.h"
 #include "hv/Lights.h"
+#include "hv/Random.h"
 #include "hv/Tracking.h"
 
 namespace hv
@@ -35,6 +36,9 @@ struct SceneView
   // Russian roulette on secondary rays whose contribution is known before they are traced,
   // relative to what the mean environment would give (see secondaryRaySurvival); 0: off.
   float secondaryRayRoulette = 0.5f;
+  // Subpixel positions from a per-pixel rotated R2 sequence over the frames (see
+  // SubpixelSequence) instead of independent uniform ones.
+  bool stratifiedSubpixelSamples = true;
   // Ray-marched models only.
   float stepLength = 1.0f; // world units
   float ambient = 0.1f;
@@ -482,6 +486,7 @@ HV_FUNCTION PixelResult renderPixel(const SceneView& scene, const EyeView& eye, 
     static_cast<std::uint32_t>(y) * static_cast<std::uint32_t>(eye.width) +
     static_cast<std::uint32_t>(x);
   Pcg32 rng = makePixelRng(pixelIndex, frameIndex, eyeIndex, seed);
+  const SubpixelSequence subpixels = makeSubpixelSequence(pixelIndex, eyeIndex, seed);
   glm::vec3 sum(0.0f);
   float coverage = 0.0f;
   for (int s = 0; s < samplesPerPixel; ++s)
@@ -495,7 +500,15 @@ HV_FUNCTION PixelResult renderPixel(const SceneView& scene, const EyeView& eye, 
     // stay as they were.
     const float jitterY = rng.nextFloat();
     const float jitterX = rng.nextFloat();
-    eye.generateRay(x + jitterX, y + jitterY, origin, direction, length);
+    // The uniform offsets are drawn either way, so that the paths' random numbers do not depend
+    // on where the subpixel positions come from and the two choices differ in those alone.
+    glm::vec2 offset(jitterX, jitterY);
+    if (scene.stratifiedSubpixelSamples)
+    {
+      offset = subpixelOffset(subpixels,
+        frameIndex * static_cast<std::uint32_t>(samplesPerPixel) + static_cast<std::uint32_t>(s));
+    }
+    eye.generateRay(x + offset.x, y + offset.y, origin, direction, length);
     FirstScatter first;
     if (scene.model == PathTraced)
     {

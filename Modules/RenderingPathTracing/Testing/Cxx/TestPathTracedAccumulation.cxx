@@ -2,9 +2,10 @@
 // Copyright (c) 2026 the HoloVolume developers.
 //
 // Progressive rendering: frames accumulate while nothing changes and the error against a
-// high-sample reference falls; a change of camera, transfer function, environment or lights
-// restarts the accumulation, a display-only change (exposure) does not. Progress events
-// rise monotonically to 1 and the frame index counts every frame.
+// high-sample reference falls; a change of camera, transfer function, environment, lights or
+// rendering settings (the subpixel samples among them) restarts the accumulation, a
+// display-only change (exposure) does not. Progress events rise monotonically to 1 and the
+// frame index counts every frame.
 #include "PathTracingTestScene.h"
 
 #include "vtkCallbackCommand.h"
@@ -182,6 +183,20 @@ int TestPathTracedAccumulation(int, char*[])
   scene.Mapper->SetAnisotropy(0.5);
   render();
   expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "a new anisotropy restarts the accumulation");
+  // Where the samples enter their pixels is a rendering setting too: switching the stratified
+  // subpixel positions off restarts, and the same frame index and seed then give another image
+  // (the positions reach the kernel; the paths' other random numbers are the same either way).
+  scene.Mapper->SetFrameIndex(100);
+  render();
+  const std::vector<float> stratifiedFrame = Radiance(scene.Mapper);
+  scene.Mapper->StratifiedSubpixelSamplesOff();
+  scene.Mapper->SetFrameIndex(100);
+  render();
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 1,
+    "switching the stratified subpixel samples restarts the accumulation");
+  expect(RootMeanSquareError(Radiance(scene.Mapper), stratifiedFrame) > 0.0,
+    "the subpixel samples setting reaches the renderer");
+  scene.Mapper->StratifiedSubpixelSamplesOn();
   render();
   scene.Mapper->ResetAccumulation();
   render();
