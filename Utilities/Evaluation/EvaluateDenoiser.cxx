@@ -53,8 +53,8 @@ struct Options
   std::string Sequences = "static,orbit,rotate,switch";
   std::string Images;
   int SwitchRuns = 4;
-  int WaveletLevels = -1; // the denoiser's default
-  int WaveletLongHistory = -1; // the denoiser's default
+  int WaveletLevels = -1;             // the denoiser's default
+  int WaveletLongHistory = -1;        // the denoiser's default
   int StratifiedSubpixelSamples = -1; // the mapper's default
 };
 

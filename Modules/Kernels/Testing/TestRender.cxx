@@ -552,8 +552,8 @@ TEST(Render, StratifiedSubpixelSamplesResolveTheSilhouetteSooner)
 {
   hv::VolumeGrid grid;
   makeBall(grid, glm::vec3(0.8f));
-  grid.setTransferFunction({ 0.0f, 1.0f - std::exp(-1.0f) }, { 0.8f, 0.8f, 0.8f, 0.8f, 0.8f, 0.8f },
-    0.001f, 1.0f);
+  grid.setTransferFunction(
+    { 0.0f, 1.0f - std::exp(-1.0f) }, { 0.8f, 0.8f, 0.8f, 0.8f, 0.8f, 0.8f }, 0.001f, 1.0f);
   hv::EnvironmentMap environment;
   environment.setUniformRadiance(FurnaceRadiance);
   hv::SceneView scene = furnaceScene(grid, environment);
@@ -593,8 +593,9 @@ TEST(Render, StratifiedSubpixelSamplesResolveTheSilhouetteSooner)
         double sum = 0.0;
         for (int frame = 0; frame < frames; ++frame)
         {
-          const float coverage = hv::renderPixel(scene, eye, x, y, 0u,
-            static_cast<std::uint32_t>(40 + frame), 5u, samplesPerPixel).radiance.w;
+          const float coverage = hv::renderPixel(
+            scene, eye, x, y, 0u, static_cast<std::uint32_t>(40 + frame), 5u, samplesPerPixel)
+                                   .radiance.w;
           sum += coverage;
           frameSquares[stratified] += (coverage - converged) * (coverage - converged);
         }

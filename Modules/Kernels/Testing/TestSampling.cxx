@@ -224,7 +224,7 @@ TEST(SubpixelSequence, ConsecutiveSamplesStratifyAnEdge)
 {
   struct Edge
   {
-    double angle; // of the edge's normal, radians
+    double angle;  // of the edge's normal, radians
     double offset; // signed distance of the edge from the pixel's centre
   };
   const Edge edges[] = { { 0.3, 0.0 }, { 1.1, 0.2 }, { 2.0, -0.3 }, { 0.785398, 0.05 },
