@@ -540,10 +540,10 @@ TEST(Render, SecondaryRayRouletteIsUnbiased)
 }
 
 // Stratified subpixel samples (SceneView::stratifiedSubpixelSamples) at a silhouette: a ball
-// dense enough that its edge is sharp within a pixel (sigmaT = 1000 s, some 40 optical depths
-// across the boundary voxel), so that a silhouette pixel's coverage noise is where its rays
-// enter. Over the pixels whose converged coverage lies in (0.05, 0.95), 32 consecutive frames
-// of 2 spp (as a history or a progressive sum holds them) estimate the coverage with an RMS
+// dense enough that its edge is sharp within a pixel (sigmaT = 1000 s per world unit, 43
+// optical depths over one voxel of s = 1), so that a silhouette pixel's coverage noise is where
+// its rays enter. Over the pixels whose converged coverage lies in (0.05, 0.95), 32 consecutive
+// frames of 2 spp (as a history or a progressive sum holds them) estimate the coverage with an RMS
 // error below 0.6 of independent uniform positions' (the same paths' random numbers
 // otherwise), a single frame no worse, and the mean error within 5 standard errors of 0: the
 // positions are stratified, not biased. The converged coverage is of 4096 uniform samples (its
