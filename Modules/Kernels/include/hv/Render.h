@@ -486,7 +486,10 @@ HV_FUNCTION PixelResult renderPixel(const SceneView& scene, const EyeView& eye, 
     static_cast<std::uint32_t>(y) * static_cast<std::uint32_t>(eye.width) +
     static_cast<std::uint32_t>(x);
   Pcg32 rng = makePixelRng(pixelIndex, frameIndex, eyeIndex, seed);
-  const SubpixelSequence subpixels = makeSubpixelSequence(pixelIndex, eyeIndex, seed);
+  // The rotation's hashes only where the positions are stratified.
+  const SubpixelSequence subpixels = scene.stratifiedSubpixelSamples
+    ? makeSubpixelSequence(pixelIndex, eyeIndex, seed)
+    : SubpixelSequence{ 0u, 0u };
   glm::vec3 sum(0.0f);
   float coverage = 0.0f;
   for (int s = 0; s < samplesPerPixel; ++s)
