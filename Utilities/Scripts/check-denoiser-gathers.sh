@@ -1,12 +1,12 @@
 #!/usr/bin/env bash
 # Fails if the denoiser library was tuned for Sapphire Rapids or a Zen (HOLOVOLUME_DENOISER_TUNE;
-# "auto" picks sapphirerapids on Intel's AVX512-FP16 cores and the newest znver the compiler knows
-# on AMD's Zen 5) but holds no gather instruction: the lookups in the other eye and
-# the previous frame then load their indices one by one, as with GCC's generic tuning, and the
+# "auto" picks sapphirerapids on Intel's AVX512-FP16 cores and the newest znver the compiler
+# knows on AMD's Zen 5) but holds no gather instruction: the lookups in the other eye and the
+# previous frame then load their indices one by one, as with GCC's generic tuning, and the
 # tuning bought nothing (the gathers saved 6-10 ms per 1440x936 stereo pair on the Intel
 # machine, about 4 on a Zen 5; Documentation/Denoising.md). For any other tuning (generic, or a
-# CPU whose gathers GCC may avoid) there is nothing to check: it reports the count and exits 125, which the test
-# counts as skipped.
+# CPU whose gathers GCC may avoid) there is nothing to check: it reports the count and exits
+# 125, which the test counts as skipped.
 # Usage: check-denoiser-gathers.sh LIBRARY TUNING   ($OBJDUMP names the objdump to use)
 set -euo pipefail
 if [ "$#" -ne 2 ]; then

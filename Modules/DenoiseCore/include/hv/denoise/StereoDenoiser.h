@@ -218,7 +218,8 @@ public:
   float historyLength(int eye, int x, int y) const;
 
   // The CPU the loops were tuned for at build time (HOLOVOLUME_DENOISER_TUNE): "generic", or
-  // a GCC -mtune name such as "sapphirerapids". It changes speed, never results.
+  // a GCC -mtune name such as "sapphirerapids", followed by ", 512-bit vectors" where the
+  // build also chose the vector width (Zen 5). It changes speed, never results.
   static const char* tuning();
 
 private:
