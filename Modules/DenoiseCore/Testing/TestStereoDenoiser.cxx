@@ -786,6 +786,70 @@ TEST(StereoDenoiser, DeterministicAcrossThreadCounts)
   EXPECT_TRUE(std::equal(serial.begin(), serial.end(), threaded.begin()));
 }
 
+// A change of size, or between stereo and mono, starts over: whatever the earlier frames left in
+// the planes, the denoiser then computes what a new one does, bit for bit. EyeState::resize sizes
+// its planes without writing them and zeroes them on parallelFor's threads (PlaneAllocator), so
+// a plane it missed, or a block the threads skipped, would leave the earlier frames' values.
+TEST(StereoDenoiser, SizeChangeStartsOver)
+{
+  const auto threeThreads =
+    [](std::int64_t count, const std::function<void(std::int64_t, std::int64_t)>& body)
+  {
+    std::vector<std::thread> pool;
+    for (int t = 0; t < 3; ++t)
+    {
+      pool.emplace_back(body, count * t / 3, count * (t + 1) / 3);
+    }
+    for (auto& thread : pool)
+    {
+      thread.join();
+    }
+  };
+  const auto denoiseFrames = [](StereoDenoiser& denoiser, const hvtest::SceneState& scene,
+                               std::uint32_t first, std::uint32_t last)
+  {
+    StereoFrame frame;
+    for (std::uint32_t t = first; t < last; ++t)
+    {
+      frame.render(scene, t);
+      frame.denoise(denoiser);
+    }
+    return frame;
+  };
+
+  hvtest::SceneState scene;
+  StereoDenoiser used;
+  used.setParallelFor(threeThreads);
+  {
+    // Other light and another view at this size, then a larger image and a mono one.
+    hvtest::SceneState earlier = scene;
+    earlier.sideLight = 2.0f;
+    earlier.cameraPosition.x = 0.2f;
+    denoiseFrames(used, earlier, 100, 104);
+    for (int mono = 0; mono < 2; ++mono)
+    {
+      hvtest::EyeBuffers eye;
+      hvtest::renderEye(earlier, 0, Width + 24, Height + 10, 104 + mono, eye);
+      std::vector<float> output(eye.radiance.size());
+      const EyeFrame frames[2] = { eye.frame(), eye.frame() };
+      float* out[2] = { output.data(), output.data() };
+      std::string error;
+      ASSERT_TRUE(used.denoise(frames, mono ? 1 : 2, 0.0f, out, error)) << error;
+    }
+  }
+  const StereoFrame afterChanges = denoiseFrames(used, scene, 0, 3);
+
+  StereoDenoiser fresh;
+  const StereoFrame fromTheStart = denoiseFrames(fresh, scene, 0, 3);
+  for (int e = 0; e < 2; ++e)
+  {
+    ASSERT_EQ(afterChanges.outputs[e].size(), fromTheStart.outputs[e].size());
+    EXPECT_TRUE(std::equal(afterChanges.outputs[e].begin(), afterChanges.outputs[e].end(),
+      fromTheStart.outputs[e].begin()))
+      << "eye " << e;
+  }
+}
+
 // A silhouette: the wall ends in a column of pixels that the volume covers half (each of the
 // two samples scatters with probability 1/2, as at the edge of a head), with empty space to
 // its right; that column's reference is half the wall's radiance, with alpha 1/2. Filtered

@@ -7,6 +7,8 @@
 #ifndef hv_denoise_DenoisePlanes_h
 #define hv_denoise_DenoisePlanes_h
 
+#include "PlaneAllocator.h"
+
 #include <glm/glm.hpp>
 
 #include <array>
@@ -86,19 +88,16 @@ HV_ALWAYS_INLINE inline void forStencilOfSpan(int begin, int count, int width, i
   }
 }
 
+// A plane of per-pixel values; resize(n) leaves them unwritten (PlaneAllocator.h).
+template <typename T>
+using PlaneVector = std::vector<T, PlaneAllocator<T>>;
+
 // Radiance (or any RGBA signal) as four planes, so that the wavelet filter's loops over a row
 // of taps read contiguous floats and vectorise.
 struct ColourPlanes
 {
-  std::vector<float> channel[4];
+  PlaneVector<float> channel[4];
 
-  void assign(std::size_t n)
-  {
-    for (std::vector<float>& c : this->channel)
-    {
-      c.assign(n, 0.0f);
-    }
-  }
   glm::vec4 at(std::size_t i) const
   {
     return glm::vec4(
@@ -126,31 +125,23 @@ struct ColourPlanes
 // loop that copied the structs into the planes).
 struct SurfacePlanes
 {
-  std::vector<float> depth, depthSpread, gradientMagnitude, normal[3], albedo[3], valid;
-  std::vector<float> depthJitter, normalJitter;
-  std::vector<float> coverageSharpness;
-  std::vector<float> point[3];
+  PlaneVector<float> depth, depthSpread, gradientMagnitude, normal[3], albedo[3], valid;
+  PlaneVector<float> depthJitter, normalJitter;
+  PlaneVector<float> coverageSharpness;
+  PlaneVector<float> point[3];
 
   // The planes of Surface's fields (all but coverageSharpness).
-  std::array<std::vector<float>*, 15> fields()
+  std::array<PlaneVector<float>*, 15> fields()
   {
     return { &this->depth, &this->depthSpread, &this->gradientMagnitude, &this->normal[0],
       &this->normal[1], &this->normal[2], &this->albedo[0], &this->albedo[1], &this->albedo[2],
       &this->valid, &this->depthJitter, &this->normalJitter, &this->point[0], &this->point[1],
       &this->point[2] };
   }
-  void assign(std::size_t n)
-  {
-    for (std::vector<float>* plane : this->fields())
-    {
-      plane->assign(n, 0.0f);
-    }
-    this->coverageSharpness.assign(n, 0.0f);
-  }
   // Pixel `to` gets the surface of pixel `from`.
   void copySurface(std::size_t from, std::size_t to)
   {
-    for (std::vector<float>* plane : this->fields())
+    for (PlaneVector<float>* plane : this->fields())
     {
       (*plane)[to] = (*plane)[from];
     }

@@ -14,6 +14,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 #include <limits>
 #include <sstream>
 #include <type_traits>
@@ -32,6 +33,7 @@ namespace
 using detail::ColourPlanes;
 using detail::filterWaveletRow;
 using detail::forStencilOfSpan;
+using detail::PlaneVector;
 using detail::SurfacePlanes;
 using Clock = std::chrono::steady_clock;
 
@@ -44,18 +46,20 @@ double millisecondsSince(Clock::time_point start)
 // variance, SVGF Sec. 4.2), the accumulated sample count in raw frames, the history length in
 // frames, and the mean square differences between consecutive frames' first scatter depths
 // and normals (for Surface::depthJitter and normalJitter).
+// No history is HistoryInfo(), all zeros. Its fields have no initialisers, so that it is
+// trivially constructible and EyeState::resize can zero its planes in parallel (PlaneVector).
 struct HistoryInfo
 {
-  float luminanceMean = 0.0f;
-  float luminanceSquareMean = 0.0f;
-  float sampleCount = 0.0f;
-  float frames = 0.0f;
-  float depthDifferenceSquareMean = 0.0f;
-  float normalDifferenceSquareMean = 0.0f; // of 1 - cosine
-  float depthMean = 0.0f;                  // of the first scatter depth, in the frame's view
+  float luminanceMean;
+  float luminanceSquareMean;
+  float sampleCount;
+  float frames;
+  float depthDifferenceSquareMean;
+  float normalDifferenceSquareMean; // of 1 - cosine
+  float depthMean;                  // of the first scatter depth, in the frame's view
   // Unused, 0: with eight floats a row of these is written by vector stores (GCC 12 vectorises
   // an interleaved group of 2^n floats, not of 7).
-  float padding = 0.0f;
+  float padding;
 
   // this += w h, field by field: a bilinear reprojection sums its taps' statistics so.
   void addWeighted(float w, const HistoryInfo& h)
@@ -198,20 +202,20 @@ struct EyeState
   std::vector<RowSpan> span, previousSpan;
   std::vector<RowSpan> ownSpan;            // pixels with their own first scatter point, per row
   std::vector<RowStatistics> rowStatistics;
-  std::vector<glm::vec4> raw, previousRaw; // demodulated (where a surface is seen) radiance
+  PlaneVector<glm::vec4> raw, previousRaw; // demodulated (where a surface is seen) radiance
   ColourPlanes fused;                      // after the cross-view samples
-  std::vector<float> fusedWeight;          // raw frames that `fused` averages
-  std::vector<float> rawLuminance;         // of `raw`, for the temporal blending's variance
+  PlaneVector<float> fusedWeight;          // raw frames that `fused` averages
+  PlaneVector<float> rawLuminance;         // of `raw`, for the temporal blending's variance
   // Where each pixel's point x(k^t) lies in the previous frame of this eye, pi^{t-1}(x(k^t)):
   // continuous pixel position, view depth, and 1 if on screen (0 otherwise). Projected once,
   // with the cross-view samples, for them, the relighting ratio and the temporal blending.
-  std::vector<float> reprojectedPixel[2], reprojectedDepth, reprojectedOnScreen;
-  std::vector<glm::vec4> history, nextHistory;
-  std::vector<HistoryInfo> historyInfo, nextHistoryInfo;
+  PlaneVector<float> reprojectedPixel[2], reprojectedDepth, reprojectedOnScreen;
+  PlaneVector<glm::vec4> history, nextHistory;
+  PlaneVector<HistoryInfo> historyInfo, nextHistoryInfo;
   ColourPlanes filtered[2];           // a-trous ping-pong
-  std::vector<float> variance[2];     // variance of the filtered luminance
-  std::vector<float> filteredLuminance; // of the wavelet filter's output, for D2's noise test
-  std::vector<glm::vec4> firstStep;   // D1 output, re-modulated
+  PlaneVector<float> variance[2];     // variance of the filtered luminance
+  PlaneVector<float> filteredLuminance; // of the wavelet filter's output, for D2's noise test
+  PlaneVector<glm::vec4> firstStep;     // D1 output, re-modulated
   // Where T says the light changed: the temporal blending's planes of each row's span (the
   // layout of temporal::Plane, span-length floats a plane, row y's from relitRowOffset[y] on),
   // with the reprojected history that the relighting ratio was computed from and the ratio
@@ -219,7 +223,7 @@ struct EyeState
   // frame at the fine scale (1 or 0). The blending then works in them in place. As a struct and
   // a ratio per pixel of the image they took 113 MB an eye at 1440x936 and a scalar copy each
   // way; the spans' planes of the head MRI take about 30.
-  std::vector<float> relitPlanes;
+  PlaneVector<float> relitPlanes;
   std::vector<std::size_t> relitRowOffset;
 
   // This frame becomes the previous one; the buffers it replaces are kept for undoCommit().
@@ -259,7 +263,11 @@ struct EyeState
     this->relightingAge = this->olderRelightingAge;
   }
 
-  void resize(int w, int h)
+  // Every plane zeroed, the spans empty, no history. Called only when the size changes: the
+  // first frame and a resize pay it. The planes are zeroed by parallelFor's threads, so that
+  // the first touch of fresh memory, whose page faults the first frame spends most of its time
+  // in, runs on every core (PlaneAllocator.h).
+  void resize(int w, int h, const StereoDenoiser::ParallelFor& parallelFor)
   {
     const std::size_t n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
     this->width = w;
@@ -267,35 +275,71 @@ struct EyeState
     this->hasPrevious = false;
     this->canReplace = false;
     this->relightingAge = 0;
-    this->surface.assign(n);
-    this->previousSurface.assign(n);
     this->span.assign(static_cast<std::size_t>(h), RowSpan());
     this->previousSpan.assign(static_cast<std::size_t>(h), RowSpan());
     this->ownSpan.assign(static_cast<std::size_t>(h), RowSpan());
     this->rowStatistics.assign(static_cast<std::size_t>(h), RowStatistics());
-    this->raw.assign(n, glm::vec4(0.0f));
-    this->previousRaw.assign(n, glm::vec4(0.0f));
-    this->fused.assign(n);
-    this->fusedWeight.assign(n, 0.0f);
-    this->rawLuminance.assign(n, 0.0f);
-    for (std::vector<float>* plane : { &this->reprojectedPixel[0], &this->reprojectedPixel[1],
-           &this->reprojectedDepth, &this->reprojectedOnScreen })
-    {
-      plane->assign(n, 0.0f);
-    }
-    this->history.assign(n, glm::vec4(0.0f));
-    this->nextHistory.assign(n, glm::vec4(0.0f));
-    this->historyInfo.assign(n, HistoryInfo());
-    this->nextHistoryInfo.assign(n, HistoryInfo());
-    for (int i = 0; i < 2; ++i)
-    {
-      this->filtered[i].assign(n);
-      this->variance[i].assign(n, 0.0f);
-    }
-    this->firstStep.assign(n, glm::vec4(0.0f));
-    this->filteredLuminance.assign(n, 0.0f);
     this->relitPlanes.clear(); // sized on first use: most scenes never relight
     this->relitRowOffset.clear();
+
+    // Sized without a value (PlaneAllocator leaves trivial elements uninitialised), then
+    // zeroed below in blocks of a huge page.
+    std::vector<std::pair<unsigned char*, std::size_t>> planes;
+    const auto sizePlane = [&](auto& plane)
+    {
+      plane.clear();
+      plane.resize(n);
+      planes.emplace_back(
+        reinterpret_cast<unsigned char*>(plane.data()), plane.size() * sizeof(plane[0]));
+    };
+    for (SurfacePlanes* surfaces : { &this->surface, &this->previousSurface })
+    {
+      for (PlaneVector<float>* plane : surfaces->fields())
+      {
+        sizePlane(*plane);
+      }
+      sizePlane(surfaces->coverageSharpness);
+    }
+    for (ColourPlanes* colour : { &this->fused, &this->filtered[0], &this->filtered[1] })
+    {
+      for (PlaneVector<float>& channel : colour->channel)
+      {
+        sizePlane(channel);
+      }
+    }
+    for (PlaneVector<float>* plane :
+      { &this->fusedWeight, &this->rawLuminance, &this->reprojectedPixel[0],
+        &this->reprojectedPixel[1], &this->reprojectedDepth, &this->reprojectedOnScreen,
+        &this->variance[0], &this->variance[1], &this->filteredLuminance })
+    {
+      sizePlane(*plane);
+    }
+    for (PlaneVector<glm::vec4>* plane :
+      { &this->raw, &this->previousRaw, &this->history, &this->nextHistory, &this->firstStep })
+    {
+      sizePlane(*plane);
+    }
+    sizePlane(this->historyInfo);
+    sizePlane(this->nextHistoryInfo);
+
+    constexpr std::size_t blockBytes = std::size_t(2) << 20;
+    std::vector<std::pair<unsigned char*, std::size_t>> blocks;
+    for (const auto& plane : planes)
+    {
+      for (std::size_t offset = 0; offset < plane.second; offset += blockBytes)
+      {
+        blocks.emplace_back(plane.first + offset, std::min(blockBytes, plane.second - offset));
+      }
+    }
+    parallelFor(static_cast<std::int64_t>(blocks.size()),
+      [&blocks](std::int64_t begin, std::int64_t end)
+      {
+        for (std::int64_t i = begin; i < end; ++i)
+        {
+          const auto& block = blocks[static_cast<std::size_t>(i)];
+          std::memset(block.first, 0, block.second);
+        }
+      });
   }
 };
 
@@ -521,7 +565,7 @@ struct NeighbourhoodMoments
 };
 
 HV_WIDEST_VECTORS NeighbourhoodMoments neighbourhoodMomentsRow(const SurfacePlanes& guide,
-  const ColourPlanes& fused, const std::vector<float>& rawLuminance, int width, int height, int y,
+  const ColourPlanes& fused, const PlaneVector<float>& rawLuminance, int width, int height, int y,
   int begin, int end)
 {
   const int count = end - begin;
@@ -1374,14 +1418,14 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
     impl.eyeCount = eyeCount;
     for (EyeState& eye : impl.eyes)
     {
-      eye.resize(0, 0);
+      eye.resize(0, 0, impl.parallelFor);
     }
   }
   for (int e = 0; e < eyeCount; ++e)
   {
     if (impl.eyes[e].width != width || impl.eyes[e].height != height)
     {
-      impl.eyes[e].resize(width, height);
+      impl.eyes[e].resize(width, height, impl.parallelFor);
     }
     EyeState& eye = impl.eyes[e];
     if (replaceLastFrame && eye.canReplace)
@@ -2279,7 +2323,7 @@ bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminat
           }
           for (int c = 0; c < 4; ++c)
           {
-            const std::vector<float>& from = eye.filtered[source].channel[c];
+            const PlaneVector<float>& from = eye.filtered[source].channel[c];
             std::copy(from.begin() + row + x, from.begin() + row + runEnd,
               eye.filtered[target].channel[c].begin() + row + x);
           }

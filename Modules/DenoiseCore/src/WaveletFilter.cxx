@@ -12,7 +12,7 @@ namespace denoise
 namespace detail
 {
 HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide, const ColourPlanes& in,
-  const std::vector<float>& inVariance, ColourPlanes& out, std::vector<float>& outVariance,
+  const PlaneVector<float>& inVariance, ColourPlanes& out, PlaneVector<float>& outVariance,
   int width, int height, int y, int begin, int end, int step, float luminanceSigma,
   const EdgeStopping edges)
 {

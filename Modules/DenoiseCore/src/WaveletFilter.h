@@ -26,7 +26,7 @@ namespace detail
 // Each call writes the row's pixels of `out` and `outVariance` from those of `in` and
 // `inVariance` around them; the rows of a level may therefore run in any order and in parallel.
 void filterWaveletRow(const SurfacePlanes& guide, const ColourPlanes& in,
-  const std::vector<float>& inVariance, ColourPlanes& out, std::vector<float>& outVariance,
+  const PlaneVector<float>& inVariance, ColourPlanes& out, PlaneVector<float>& outVariance,
   int width, int height, int y, int begin, int end, int step, float luminanceSigma,
   const EdgeStopping edges);
 }
