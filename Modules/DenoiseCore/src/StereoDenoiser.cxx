@@ -282,8 +282,8 @@ struct EyeState
     this->relitPlanes.clear(); // sized on first use: most scenes never relight
     this->relitRowOffset.clear();
 
-    // Sized without a value (PlaneAllocator leaves trivial elements uninitialised), then
-    // zeroed below in blocks of a huge page.
+    // Every per-pixel plane above, sized without a value (PlaneAllocator leaves trivial
+    // elements unwritten), then zeroed below in blocks of 2 MiB.
     std::vector<std::pair<unsigned char*, std::size_t>> planes;
     const auto sizePlane = [&](auto& plane)
     {
