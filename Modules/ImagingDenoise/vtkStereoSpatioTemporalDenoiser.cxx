@@ -415,6 +415,14 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
     denoised[e]->SetName("Radiance");
     denoised[e]->SetNumberOfComponents(4);
     denoised[e]->SetNumberOfTuples(inputs[e]->GetNumberOfPoints());
+    if (denoised[e]->GetNumberOfTuples() != inputs[e]->GetNumberOfPoints())
+    {
+      // vtkDataArray reports a failed allocation and stays empty.
+      vtkErrorMacro(<< "Out of memory for the denoised image of eye " << e << " ("
+                    << inputs[e]->GetNumberOfPoints()
+                    << " RGBA float pixels). Denoise smaller images or free memory.");
+      return 0;
+    }
     targets[e] = denoised[e]->GetPointer(0);
   }
   std::string error;

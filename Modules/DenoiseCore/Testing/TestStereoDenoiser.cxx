@@ -18,6 +18,11 @@
 #include <string>
 #include <thread>
 
+#if defined(__linux__)
+#include <sys/resource.h>
+#include <unistd.h>
+#endif
+
 using namespace hv::denoise;
 
 namespace
@@ -848,6 +853,96 @@ TEST(StereoDenoiser, SizeChangeStartsOver)
       fromTheStart.outputs[e].begin()))
       << "eye " << e;
   }
+}
+
+#if defined(__linux__)
+// The process's address space now, in bytes (/proc/self/statm's first field, in pages).
+std::size_t addressSpaceBytes()
+{
+  std::FILE* statm = std::fopen("/proc/self/statm", "r");
+  unsigned long pages = 0;
+  if (statm)
+  {
+    if (std::fscanf(statm, "%lu", &pages) != 1)
+    {
+      pages = 0;
+    }
+    std::fclose(statm);
+  }
+  return static_cast<std::size_t>(pages) * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+}
+
+// Out of memory is an error, not a crash. In a child process whose address space is limited
+// to 256 MB more than it holds, a 1440x936 stereo frame (whose planes take about 960 MB) is
+// refused with a message that says how much it needs; with the limit lifted, the same
+// denoiser then computes what a new one does.
+void denoiseOutOfMemoryAndRecover()
+{
+  hvtest::SceneState scene;
+  StereoFrame large;
+  for (int e = 0; e < 2; ++e)
+  {
+    hvtest::renderEye(scene, e, 1440, 936, 0, large.eyes[e]);
+    large.outputs[e].assign(large.eyes[e].radiance.size(), 0.0f);
+  }
+  StereoDenoiser denoiser;
+  rlimit saved{};
+  getrlimit(RLIMIT_AS, &saved);
+  rlimit limited = saved;
+  limited.rlim_cur = static_cast<rlim_t>(addressSpaceBytes() + (std::size_t(256) << 20));
+  if (setrlimit(RLIMIT_AS, &limited) != 0)
+  {
+    std::fprintf(stderr, "setrlimit failed\n");
+    std::exit(2);
+  }
+  const EyeFrame frames[2] = { large.eyes[0].frame(), large.eyes[1].frame() };
+  float* out[2] = { large.outputs[0].data(), large.outputs[1].data() };
+  std::string error;
+  const bool denoised = denoiser.denoise(frames, 2, 0.0f, out, error);
+  setrlimit(RLIMIT_AS, &saved);
+  if (denoised || error.find("Out of memory") == std::string::npos ||
+    error.find("1440x936") == std::string::npos || error.find(" MB ") == std::string::npos)
+  {
+    std::fprintf(stderr, "no out-of-memory error; denoise() %s: '%s'\n",
+      denoised ? "succeeded" : "failed", error.c_str());
+    std::exit(3);
+  }
+  std::fprintf(stderr, "%s\n", error.c_str());
+
+  StereoFrame afterwards, fromTheStart;
+  StereoDenoiser fresh;
+  for (std::uint32_t t = 0; t < 3; ++t)
+  {
+    afterwards.render(scene, t);
+    fromTheStart.render(scene, t);
+    if (!afterwards.denoise(denoiser) || !fromTheStart.denoise(fresh))
+    {
+      std::exit(4);
+    }
+  }
+  for (int e = 0; e < 2; ++e)
+  {
+    if (!std::equal(afterwards.outputs[e].begin(), afterwards.outputs[e].end(),
+          fromTheStart.outputs[e].begin()))
+    {
+      std::fprintf(stderr, "eye %d differs from a new denoiser's\n", e);
+      std::exit(5);
+    }
+  }
+  std::exit(0);
+}
+#endif
+
+TEST(StereoDenoiserDeathTest, OutOfMemoryIsAnErrorNotACrash)
+{
+#if defined(__linux__)
+  // A fresh process for the child (the test binary may have started threads).
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  EXPECT_EXIT(denoiseOutOfMemoryAndRecover(), ::testing::ExitedWithCode(0),
+    "Out of memory: the denoiser needs about [0-9]+ MB for 2 eye\\(s\\) of 1440x936");
+#else
+  GTEST_SKIP() << "needs Linux's RLIMIT_AS";
+#endif
 }
 
 // A silhouette: the wall ends in a column of pixels that the volume covers half (each of the

@@ -16,6 +16,7 @@
 #include <cstddef>
 #include <cstring>
 #include <limits>
+#include <new>
 #include <sstream>
 #include <type_traits>
 #include <utility>
@@ -263,10 +264,56 @@ struct EyeState
     this->relightingAge = this->olderRelightingAge;
   }
 
+  // Calls visit(plane) for every per-pixel plane (a PlaneVector of any element type).
+  template <typename Visit>
+  void forEachPlane(Visit&& visit)
+  {
+    for (SurfacePlanes* surfaces : { &this->surface, &this->previousSurface })
+    {
+      for (PlaneVector<float>* plane : surfaces->fields())
+      {
+        visit(*plane);
+      }
+      visit(surfaces->coverageSharpness);
+    }
+    for (ColourPlanes* colour : { &this->fused, &this->filtered[0], &this->filtered[1] })
+    {
+      for (PlaneVector<float>& channel : colour->channel)
+      {
+        visit(channel);
+      }
+    }
+    for (PlaneVector<float>* plane :
+      { &this->fusedWeight, &this->rawLuminance, &this->reprojectedPixel[0],
+        &this->reprojectedPixel[1], &this->reprojectedDepth, &this->reprojectedOnScreen,
+        &this->variance[0], &this->variance[1], &this->filteredLuminance, &this->relitPlanes })
+    {
+      visit(*plane);
+    }
+    for (PlaneVector<glm::vec4>* plane :
+      { &this->raw, &this->previousRaw, &this->history, &this->nextHistory, &this->firstStep })
+    {
+      visit(*plane);
+    }
+    visit(this->historyInfo);
+    visit(this->nextHistoryInfo);
+  }
+
+  // Bytes of the planes resize(w, h) allocates (relitPlanes aside, which grows with the spans).
+  static std::size_t planeBytes(int w, int h)
+  {
+    EyeState sizes;
+    std::size_t bytesPerPixel = 0;
+    sizes.forEachPlane([&bytesPerPixel](auto& plane) { bytesPerPixel += sizeof(plane[0]); });
+    bytesPerPixel -= sizeof(float); // relitPlanes
+    return bytesPerPixel * static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
+  }
+
   // Every plane zeroed, the spans empty, no history. Called only when the size changes: the
   // first frame and a resize pay it. The planes are zeroed by parallelFor's threads, so that
   // the first touch of fresh memory, whose page faults the first frame spends most of its time
-  // in, runs on every core (PlaneAllocator.h).
+  // in, runs on every core (PlaneAllocator.h). Throws std::bad_alloc when memory runs out;
+  // release() then frees what was allocated.
   void resize(int w, int h, const StereoDenoiser::ParallelFor& parallelFor)
   {
     const std::size_t n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
@@ -279,48 +326,23 @@ struct EyeState
     this->previousSpan.assign(static_cast<std::size_t>(h), RowSpan());
     this->ownSpan.assign(static_cast<std::size_t>(h), RowSpan());
     this->rowStatistics.assign(static_cast<std::size_t>(h), RowStatistics());
-    this->relitPlanes.clear(); // sized on first use: most scenes never relight
     this->relitRowOffset.clear();
 
-    // Every per-pixel plane above, sized without a value (PlaneAllocator leaves trivial
-    // elements unwritten), then zeroed below in blocks of 2 MiB.
+    // Every per-pixel plane, sized without a value (PlaneAllocator leaves trivial elements
+    // unwritten), then zeroed below in blocks of 2 MiB. relitPlanes is sized on first use: most
+    // scenes never relight.
     std::vector<std::pair<unsigned char*, std::size_t>> planes;
-    const auto sizePlane = [&](auto& plane)
-    {
-      plane.clear();
-      plane.resize(n);
-      planes.emplace_back(
-        reinterpret_cast<unsigned char*>(plane.data()), plane.size() * sizeof(plane[0]));
-    };
-    for (SurfacePlanes* surfaces : { &this->surface, &this->previousSurface })
-    {
-      for (PlaneVector<float>* plane : surfaces->fields())
+    this->forEachPlane(
+      [&](auto& plane)
       {
-        sizePlane(*plane);
-      }
-      sizePlane(surfaces->coverageSharpness);
-    }
-    for (ColourPlanes* colour : { &this->fused, &this->filtered[0], &this->filtered[1] })
-    {
-      for (PlaneVector<float>& channel : colour->channel)
-      {
-        sizePlane(channel);
-      }
-    }
-    for (PlaneVector<float>* plane :
-      { &this->fusedWeight, &this->rawLuminance, &this->reprojectedPixel[0],
-        &this->reprojectedPixel[1], &this->reprojectedDepth, &this->reprojectedOnScreen,
-        &this->variance[0], &this->variance[1], &this->filteredLuminance })
-    {
-      sizePlane(*plane);
-    }
-    for (PlaneVector<glm::vec4>* plane :
-      { &this->raw, &this->previousRaw, &this->history, &this->nextHistory, &this->firstStep })
-    {
-      sizePlane(*plane);
-    }
-    sizePlane(this->historyInfo);
-    sizePlane(this->nextHistoryInfo);
+        plane.clear();
+        if (&plane != static_cast<void*>(&this->relitPlanes))
+        {
+          plane.resize(n);
+          planes.emplace_back(
+            reinterpret_cast<unsigned char*>(plane.data()), plane.size() * sizeof(plane[0]));
+        }
+      });
 
     constexpr std::size_t blockBytes = std::size_t(2) << 20;
     std::vector<std::pair<unsigned char*, std::size_t>> blocks;
@@ -340,6 +362,26 @@ struct EyeState
           std::memset(block.first, 0, block.second);
         }
       });
+  }
+
+  // Back to the state of a new denoiser, its memory returned.
+  void release() noexcept
+  {
+    this->forEachPlane([](auto& plane) { std::decay_t<decltype(plane)>().swap(plane); });
+    for (auto* rows : { &this->span, &this->previousSpan, &this->ownSpan })
+    {
+      std::vector<RowSpan>().swap(*rows);
+    }
+    std::vector<RowStatistics>().swap(this->rowStatistics);
+    std::vector<std::size_t>().swap(this->relitRowOffset);
+    this->width = 0;
+    this->height = 0;
+    this->hasPrevious = false;
+    this->hadPrevious = false;
+    this->canReplace = false;
+    this->relightingAge = 0;
+    this->nextRelightingAge = 0;
+    this->olderRelightingAge = 0;
   }
 };
 
@@ -1314,6 +1356,39 @@ float StereoDenoiser::historyLength(int eye, int x, int y) const
 }
 
 bool StereoDenoiser::denoise(const EyeFrame* eyes, int eyeCount, float illuminationDifference,
+  float* const* outputs, std::string& error, bool replaceLastFrame)
+{
+  try
+  {
+    return this->denoiseFrame(
+      eyes, eyeCount, illuminationDifference, outputs, error, replaceLastFrame);
+  }
+  catch (const std::bad_alloc&)
+  {
+    // The planes of a new size, or the relit planes of a change of light, did not fit. What
+    // the eyes held may be half written: the denoiser starts over, its memory returned.
+    Internals& impl = *this->Impl;
+    for (EyeState& eye : impl.eyes)
+    {
+      eye.release();
+    }
+    impl.eyeCount = 0;
+    const int width = eyes && eyeCount >= 1 ? eyes[0].width : 0;
+    const int height = eyes && eyeCount >= 1 ? eyes[0].height : 0;
+    const double megabytes =
+      static_cast<double>(EyeState::planeBytes(width, height)) * std::max(eyeCount, 1) / 1e6;
+    std::ostringstream message;
+    message << "Out of memory: the denoiser needs about " << static_cast<long long>(megabytes)
+            << " MB for " << std::max(eyeCount, 1) << " eye(s) of " << width << "x" << height
+            << " (" << EyeState::planeBytes(1, 1) / sizeof(float)
+            << " floats a pixel per eye). Denoise smaller images or free memory; the history was "
+               "dropped.";
+    error = message.str();
+    return false;
+  }
+}
+
+bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illuminationDifference,
   float* const* outputs, std::string& error, bool replaceLastFrame)
 {
   const auto start = Clock::now();

@@ -208,7 +208,9 @@ public:
   // and explains in `error`, without touching the history, when the input is unusable (after
   // non-finite radiance the outputs hold a copy of it). With replaceLastFrame the
   // call denoises the last frame again (say, after a parameter change) from the history it
-  // started with, instead of counting the same samples twice as a new frame.
+  // started with, instead of counting the same samples twice as a new frame. When memory runs
+  // out (the denoiser keeps 89 floats a pixel per eye, about 480 MB an eye at 1440x936), it
+  // returns false and says how much it needs, and starts over like a new denoiser.
   bool denoise(const EyeFrame* eyes, int eyeCount, float illuminationDifference,
     float* const* outputs, std::string& error, bool replaceLastFrame = false);
 
@@ -223,6 +225,10 @@ public:
   static const char* tuning();
 
 private:
+  // denoise() without its handling of std::bad_alloc.
+  bool denoiseFrame(const EyeFrame* eyes, int eyeCount, float illuminationDifference,
+    float* const* outputs, std::string& error, bool replaceLastFrame);
+
   struct Internals;
   std::unique_ptr<Internals> Impl;
   DenoiserParameters Parameters;
