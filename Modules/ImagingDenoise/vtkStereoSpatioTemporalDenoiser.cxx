@@ -50,6 +50,16 @@ vtkStereoSpatioTemporalDenoiser::vtkStereoSpatioTemporalDenoiser()
       vtkSMPTools::For(0, static_cast<vtkIdType>(count),
         [&body](vtkIdType begin, vtkIdType end) { body(begin, end); });
     });
+  // ProgressEvent after each of the frame's first four stages; the pipeline's executive itself
+  // reports 0 before RequestData and 1 after it.
+  this->Internals->Denoiser.setProgress(
+    [this](double fraction)
+    {
+      if (fraction > 0.0 && fraction < 1.0)
+      {
+        this->UpdateProgress(fraction);
+      }
+    });
 }
 
 vtkStereoSpatioTemporalDenoiser::~vtkStereoSpatioTemporalDenoiser() = default;

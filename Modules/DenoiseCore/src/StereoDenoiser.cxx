@@ -1084,6 +1084,15 @@ struct StereoDenoiser::Internals
 {
   EyeState eyes[2];
   ParallelFor parallelFor;
+  Progress progress;
+
+  void reportProgress(double fraction) const
+  {
+    if (this->progress)
+    {
+      this->progress(fraction);
+    }
+  }
   int eyeCount = 0;
 
   // row(e, y, begin, end) over the spans of both eyes' rows.
@@ -1321,6 +1330,11 @@ void StereoDenoiser::setParallelFor(ParallelFor parallelFor)
   }
 }
 
+void StereoDenoiser::setProgress(Progress progress)
+{
+  this->Impl->progress = std::move(progress);
+}
+
 void StereoDenoiser::reset()
 {
   for (EyeState& eye : this->Impl->eyes)
@@ -1487,6 +1501,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
     return false;
   }
 
+  impl.reportProgress(0.0);
   // A size change (or a switch between mono and stereo) starts over.
   if (eyeCount != impl.eyeCount)
   {
@@ -1753,6 +1768,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       }
     });
   this->Statistics.milliseconds[0] = millisecondsSince(stageStart);
+  impl.reportProgress(0.2);
 
   // 2. D1's cross-view samples: k_R^t = pi_R^t(x(k_L^t)), k_L^{t-1} = pi_L^{t-1}(x(k_L^t)),
   // k_R^{t-1} = pi_R^{t-1}(x(k_L^{t-1})) (Eq. 2), each weighted by zeta; the previous frame's
@@ -1972,6 +1988,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       }
     });
   this->Statistics.milliseconds[1] = millisecondsSince(stageStart);
+  impl.reportProgress(0.4);
 
   // 3. Temporal blending with the reprojected history: w_v = delta(1/(T-1)) zeta times the
   // history's sample count, neighbourhood-clamped; the luminance moments give the variance
@@ -2345,6 +2362,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       eye.rowStatistics[static_cast<std::size_t>(y)] = rowStatistics;
     });
   this->Statistics.milliseconds[2] = millisecondsSince(stageStart);
+  impl.reportProgress(0.6);
 
   // 4. Edge-aware a-trous wavelet filter (3x3 B-spline taps at steps 1, 2, 4, ...) guided by
   // the variance, which each level propagates (SVGF Eq. 5). Nothing filtered feeds back: the
@@ -2427,6 +2445,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       }
     });
   this->Statistics.milliseconds[3] = millisecondsSince(stageStart);
+  impl.reportProgress(0.8);
 
   // 5. D2: v(k_L, 2) = lambda v(k_L, 1) + (1 - lambda) v(k_R, 1), k_R = pi_R^t(x(k_L^t)),
   // lambda = alpha (beta - exp(-|gamma_L - gamma_R|)); where the point is hidden from the
@@ -2706,6 +2725,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       p.stereoUnpremultipliedBlend ? weighAndBlend(Yes()) : weighAndBlend(No());
     });
   this->Statistics.milliseconds[4] = millisecondsSince(stageStart);
+  impl.reportProgress(1.0);
 
   // Statistics, then this frame becomes the previous one.
   for (int e = 0; e < 2; ++e)

@@ -9,12 +9,16 @@
 //    coverage below 0.01 where the old volume was; measured 0.0007), and with the volume's
 //    motion compensated the moved frame still gains 6 dB (measured +12.6 dB);
 // 3. T from port 2's field data reaches w_v: T = 0.9 leaves a gate of zero;
-// 4. re-executing after a parameter change does not count the frame twice.
+// 4. re-executing after a parameter change does not count the frame twice;
+// 5. a frame reports its progress: ProgressEvent at 0 (the executive), after each of the first
+//    four stages (the denoiser) and at 1 (the executive), in order.
 #include "PathTracingTestScene.h"
 #include "vtkStereoSpatioTemporalDenoiser.h"
 
 #include "hv/denoise/ImageQuality.h"
 
+#include "vtkCallbackCommand.h"
+#include "vtkCommand.h"
 #include "vtkDoubleArray.h"
 #include "vtkFieldData.h"
 
@@ -70,11 +74,36 @@ int TestStereoSpatioTemporalDenoiser(int, char*[])
   denoiser->SetInputData(0, scene.Mapper->GetEyeOutput(0));
   denoiser->SetInputData(1, scene.Mapper->GetEyeOutput(1));
 
+  // 5. Progress of the first frame, as a progress bar would see it.
+  std::vector<double> progress;
+  vtkNew<vtkCallbackCommand> onProgress;
+  onProgress->SetClientData(&progress);
+  onProgress->SetCallback([](vtkObject*, unsigned long, void* clientData, void* callData)
+    { static_cast<std::vector<double>*>(clientData)->push_back(*static_cast<double*>(callData)); });
+  denoiser->AddObserver(vtkCommand::ProgressEvent, onProgress);
+
   double rawPSNR = 0.0, denoisedPSNR = 0.0;
   for (int frame = 0; frame < 8; ++frame)
   {
     scene.RenderStereo(Size);
     denoiser->Update();
+    if (frame == 0)
+    {
+      const std::vector<double> expected = { 0.0, 0.2, 0.4, 0.6, 0.8, 1.0 };
+      std::cout << "progress of the first frame:";
+      for (double fraction : progress)
+      {
+        std::cout << " " << fraction;
+      }
+      std::cout << "\n";
+      if (progress != expected)
+      {
+        std::cerr << "FAILED: the frame did not report its progress at 0, after each of its "
+                     "first four stages and at 1\n";
+        ++failures;
+      }
+      denoiser->RemoveObserver(onProgress);
+    }
   }
   for (int e = 0; e < 2; ++e)
   {

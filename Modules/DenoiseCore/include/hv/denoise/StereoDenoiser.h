@@ -196,6 +196,14 @@ public:
   StereoDenoiser& operator=(const StereoDenoiser&) = delete;
 
   void setParallelFor(ParallelFor parallelFor);
+
+  // Called on the calling thread with the fraction of a frame done: 0 when its stages start and
+  // (k + 1) / 5 after stage k (the surfaces, D1's cross-view samples, temporal blending and
+  // wavelet filter, and D2). The first frame after a change of size sizes the planes before its
+  // first stage ends. Not called for a frame that is refused. The VTK adapter passes
+  // vtkAlgorithm::UpdateProgress, so that a progress bar follows the frame.
+  using Progress = std::function<void(double fraction)>;
+  void setProgress(Progress progress);
   DenoiserParameters& parameters() { return this->Parameters; }
   const DenoiserParameters& parameters() const { return this->Parameters; }
 
