@@ -264,7 +264,8 @@ struct EyeState
     this->relightingAge = this->olderRelightingAge;
   }
 
-  // Calls visit(plane) for every per-pixel plane (a PlaneVector of any element type).
+  // Calls visit(plane) for every plane of one value per pixel (a PlaneVector of any element
+  // type); relitPlanes, sized by the spans on first use, is not one of them.
   template <typename Visit>
   void forEachPlane(Visit&& visit)
   {
@@ -286,7 +287,7 @@ struct EyeState
     for (PlaneVector<float>* plane :
       { &this->fusedWeight, &this->rawLuminance, &this->reprojectedPixel[0],
         &this->reprojectedPixel[1], &this->reprojectedDepth, &this->reprojectedOnScreen,
-        &this->variance[0], &this->variance[1], &this->filteredLuminance, &this->relitPlanes })
+        &this->variance[0], &this->variance[1], &this->filteredLuminance })
     {
       visit(*plane);
     }
@@ -299,13 +300,12 @@ struct EyeState
     visit(this->nextHistoryInfo);
   }
 
-  // Bytes of the planes resize(w, h) allocates (relitPlanes aside, which grows with the spans).
+  // Bytes of the planes resize(w, h) allocates.
   static std::size_t planeBytes(int w, int h)
   {
     EyeState sizes;
     std::size_t bytesPerPixel = 0;
     sizes.forEachPlane([&bytesPerPixel](auto& plane) { bytesPerPixel += sizeof(plane[0]); });
-    bytesPerPixel -= sizeof(float); // relitPlanes
     return bytesPerPixel * static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
   }
 
@@ -326,33 +326,25 @@ struct EyeState
     this->previousSpan.assign(static_cast<std::size_t>(h), RowSpan());
     this->ownSpan.assign(static_cast<std::size_t>(h), RowSpan());
     this->rowStatistics.assign(static_cast<std::size_t>(h), RowStatistics());
+    this->relitPlanes.clear(); // sized on first use: most scenes never relight
     this->relitRowOffset.clear();
 
-    // Every per-pixel plane, sized without a value (PlaneAllocator leaves trivial elements
-    // unwritten), then zeroed below in blocks of 2 MiB. relitPlanes is sized on first use: most
-    // scenes never relight.
-    std::vector<std::pair<unsigned char*, std::size_t>> planes;
+    // Every plane sized without a value (PlaneAllocator leaves trivial elements unwritten),
+    // then zeroed in blocks of 2 MiB.
+    constexpr std::size_t blockBytes = std::size_t(2) << 20;
+    std::vector<std::pair<unsigned char*, std::size_t>> blocks;
     this->forEachPlane(
       [&](auto& plane)
       {
         plane.clear();
-        if (&plane != static_cast<void*>(&this->relitPlanes))
+        plane.resize(n);
+        unsigned char* bytes = reinterpret_cast<unsigned char*>(plane.data());
+        const std::size_t size = plane.size() * sizeof(plane[0]);
+        for (std::size_t offset = 0; offset < size; offset += blockBytes)
         {
-          plane.resize(n);
-          planes.emplace_back(
-            reinterpret_cast<unsigned char*>(plane.data()), plane.size() * sizeof(plane[0]));
+          blocks.emplace_back(bytes + offset, std::min(blockBytes, size - offset));
         }
       });
-
-    constexpr std::size_t blockBytes = std::size_t(2) << 20;
-    std::vector<std::pair<unsigned char*, std::size_t>> blocks;
-    for (const auto& plane : planes)
-    {
-      for (std::size_t offset = 0; offset < plane.second; offset += blockBytes)
-      {
-        blocks.emplace_back(plane.first + offset, std::min(blockBytes, plane.second - offset));
-      }
-    }
     parallelFor(static_cast<std::int64_t>(blocks.size()),
       [&blocks](std::int64_t begin, std::int64_t end)
       {
@@ -368,6 +360,7 @@ struct EyeState
   void release() noexcept
   {
     this->forEachPlane([](auto& plane) { std::decay_t<decltype(plane)>().swap(plane); });
+    PlaneVector<float>().swap(this->relitPlanes);
     for (auto* rows : { &this->span, &this->previousSpan, &this->ownSpan })
     {
       std::vector<RowSpan>().swap(*rows);
