@@ -40,6 +40,7 @@
 #include "vtkVolumeProperty.h"
 #include "vtk_glew.h"
 
+#include "hv/DefaultInitAllocator.h"
 #include "hv/EnvironmentMap.h"
 #include "hv/Render.h"
 #include "hv/ToneMapping.h"
@@ -98,11 +99,12 @@ struct RenderSettings
   }
 };
 
-// Converts any scalar type to the normalised float the kernels sample.
-struct NormalizeScalarsWorker
+// Converts any scalar type to the grid's 16-bit fixed point of the scalar normalised over its
+// range, on every core.
+struct QuantizeScalarsWorker
 {
   template <typename ArrayType>
-  void operator()(ArrayType* array, float* out, double low, double scale)
+  void operator()(ArrayType* array, std::uint16_t* out, double low, double scale)
   {
     const auto values = vtk::DataArrayValueRange<1>(array);
     vtkSMPTools::For(0, static_cast<vtkIdType>(values.size()),
@@ -110,7 +112,8 @@ struct NormalizeScalarsWorker
       {
         for (vtkIdType i = begin; i < end; ++i)
         {
-          out[i] = static_cast<float>((static_cast<double>(values[i]) - low) * scale);
+          out[i] = hv::VolumeGrid::quantize(
+            static_cast<float>((static_cast<double>(values[i]) - low) * scale));
         }
       });
   }
@@ -122,7 +125,8 @@ class vtkPathTracedVolumeMapper::vtkInternals
 public:
   struct EyeState
   {
-    std::vector<float> RadianceSum;
+    // Sized without a value: a frame that starts the sum writes it rather than adds to it.
+    std::vector<float, hv::DefaultInitAllocator<float>> RadianceSum;
     int AccumulatedFrames = 0;
     glm::mat4 View = glm::mat4(0.0f);
     glm::mat4 Projection = glm::mat4(0.0f);
@@ -177,6 +181,14 @@ vtkPathTracedVolumeMapper::vtkPathTracedVolumeMapper()
 {
   this->SetNumberOfInputPorts(2);
   this->EnvironmentToWorldMatrix = vtkMatrix4x4::New();
+  // Loading a volume and changing its transfer function rebuild the grid's per-voxel and
+  // per-cell arrays; on every core, as the frames are rendered.
+  this->Internals->Grid.setParallelFor(
+    [](std::int64_t count, const std::function<void(std::int64_t, std::int64_t)>& body)
+    {
+      vtkSMPTools::For(0, static_cast<vtkIdType>(count),
+        [&body](vtkIdType begin, vtkIdType end) { body(begin, end); });
+    });
 }
 
 vtkPathTracedVolumeMapper::~vtkPathTracedVolumeMapper()
@@ -380,13 +392,16 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
     const double scale = range[1] > range[0] ? 1.0 / (range[1] - range[0]) : 0.0;
     int dims[3];
     input->GetDimensions(dims);
-    std::vector<float> normalized(static_cast<std::size_t>(dims[0]) * dims[1] * dims[2]);
-    NormalizeScalarsWorker worker;
-    if (!vtkArrayDispatch::Dispatch::Execute(scalars, worker, normalized.data(), range[0], scale))
+    // Sized without a value: the worker's threads write it first.
+    hv::VolumeGrid::ScalarArray quantized;
+    quantized.resize(static_cast<std::size_t>(dims[0]) * dims[1] * dims[2]);
+    QuantizeScalarsWorker worker;
+    if (!vtkArrayDispatch::Dispatch::Execute(scalars, worker, quantized.data(), range[0], scale))
     {
-      worker(scalars, normalized.data(), range[0], scale);
+      worker(scalars, quantized.data(), range[0], scale);
     }
-    internals->Grid.setScalars(glm::ivec3(dims[0], dims[1], dims[2]), std::move(normalized));
+    internals->Grid.setQuantizedScalars(
+      glm::ivec3(dims[0], dims[1], dims[2]), std::move(quantized));
     internals->ScalarRange[0] = range[0];
     internals->ScalarRange[1] = range[1];
     input->GetExtent(internals->Extent);
@@ -748,6 +763,7 @@ void SetFieldInt(vtkImageData* image, const char* name, int value)
 struct EyeBuffers
 {
   float* radianceSum;
+  bool sumStarts; // the first frame of the sum: its values replace what the array holds
   float* radiance;
   float* position;
   float* depth;
@@ -787,7 +803,8 @@ HV_RENDER_CLONES void RenderRows(const hv::SceneView& scene, const hv::EyeView& 
                                        : hv::PixelResult();
       for (int c = 0; c < 4; ++c)
       {
-        out.radianceSum[4 * pixel + c] += r.radiance[c];
+        out.radianceSum[4 * pixel + c] =
+          out.sumStarts ? r.radiance[c] : out.radianceSum[4 * pixel + c] + r.radiance[c];
         out.radiance[4 * pixel + c] = out.radianceSum[4 * pixel + c] * inverseFrames;
       }
       out.valid[pixel] = static_cast<unsigned char>(r.hit);
@@ -835,10 +852,10 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
     {
       state.AccumulatedFrames = 0;
     }
-    if (state.AccumulatedFrames == 0)
-    {
-      state.RadianceSum.assign(4 * pixelCount, 0.0f);
-    }
+    // A fresh sum is written by the render loop's threads, not zeroed here first: with a
+    // denoiser every frame is fresh, and zeroing 22 MB an eye at 1440x936 on this thread took
+    // its first page faults on one core.
+    state.RadianceSum.resize(4 * pixelCount);
     if (dims[0] != view.width || dims[1] != view.height)
     {
       output->SetDimensions(view.width, view.height, 1);
@@ -866,6 +883,7 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
     const int frames = state.AccumulatedFrames + 1;
     const float inverseFrames = 1.0f / static_cast<float>(frames);
     buffers.radianceSum = state.RadianceSum.data();
+    buffers.sumStarts = state.AccumulatedFrames == 0;
     // Pixels whose rays cannot meet the occupied volume get an empty sample directly.
     int rectangle[4] = { 0, 0, view.width, view.height };
     if (!scene.environmentVisible)

@@ -22,6 +22,7 @@
 #include "vtkNew.h"
 #include "vtkPNGWriter.h"
 #include "vtkPathTracedVolumeMapper.h"
+#include "vtkPiecewiseFunction.h"
 #include "vtkPointData.h"
 #include "vtkRenderWindow.h"
 #include "vtkRenderer.h"
@@ -35,6 +36,7 @@
 #include <X11/Xlib.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -79,6 +81,9 @@ and, in the same run, VTK's vtkFixedPointVolumeRayCastMapper (shaded) and
 vtkOpenGLGPUVolumeRayCastMapper rendering the same volume, transfer function and eye views.
 The first frame of each mapper (classification, majorant grid, gradients, texture upload,
 shader compilation) is reported on its own; the median and mean are over the frames after it.
+After them one more frame is timed with every opacity point of the transfer function lowered
+by 1 % (then put back): what a user who edits the transfer function waits for, the mapper's
+reclassification included.
 
 The VTK mappers need an X display; run headless as
   xvfb-run -a -s "-screen 0 1920x1080x24 -noreset" holovolume-benchmark
@@ -325,6 +330,11 @@ struct Result
   bool Ran = false;
   std::string Note;          // why a row was skipped, or a caveat
   double FirstFrameMs = 0.0; // the one-off first stereo frame
+  double TransferChangeFrameMs = -1.0; // the frame after an opacity change; < 0: not timed
+  // The path tracer's scene preparation before its rays start (its StartEvent): on the first
+  // frame loading the volume and classifying it, after the opacity change classifying it again.
+  double FirstPrepareMs = -1.0;
+  double TransferChangePrepareMs = -1.0;
   std::vector<double> FrameMs;
   double CPUSeconds = 0.0;   // process CPU time over the timed frames
   double WorkPerFrame = 0.0; // samples (path tracer) or rays (ray casters) per stereo frame
@@ -333,6 +343,37 @@ struct Result
   double RelativeNoise = -1.0; // RMS / mean luminance of one frame; < 0 when not measured
   Mask Masks[2];
 };
+
+// Times renderStereoFrame() after lowering every opacity point of the property by 1 %, which
+// makes the mapper classify the volume again; the points are put back afterwards.
+template <typename RenderStereoFrame>
+double TimeAfterOpacityChange(vtkVolumeProperty* property, RenderStereoFrame renderStereoFrame)
+{
+  vtkPiecewiseFunction* opacity = property->GetScalarOpacity();
+  std::vector<std::array<double, 4>> nodes(opacity->GetSize());
+  for (int i = 0; i < opacity->GetSize(); ++i)
+  {
+    opacity->GetNodeValue(i, nodes[i].data());
+    std::array<double, 4> lowered = nodes[i];
+    lowered[1] *= 0.99;
+    opacity->SetNodeValue(i, lowered.data());
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const bool rendered = renderStereoFrame();
+  const double milliseconds = MillisecondsSince(start);
+  for (int i = 0; i < opacity->GetSize(); ++i)
+  {
+    opacity->SetNodeValue(i, nodes[i].data());
+  }
+  return rendered ? milliseconds : -1.0;
+}
+
+// Notes when the path tracer starts its rays (StartEvent, after it has prepared the scene).
+void NoteTime(vtkObject*, unsigned long, void* clientData, void*)
+{
+  *static_cast<std::chrono::steady_clock::time_point*>(clientData) =
+    std::chrono::steady_clock::now();
+}
 
 // Counts the events a mapper fires when it actually casts rays, so a row can be rejected
 // if a timed frame was a cached no-op.
@@ -469,15 +510,24 @@ Result TimePathTracer(vtkPathTracedVolumeMapper* mapper, vtkVolume* volume,
     return mapper->RenderStereoFrame(volume, views[0], projections[0], views[1], projections[1],
       options.Width, options.Height, modelLights);
   };
+  std::chrono::steady_clock::time_point raysStart;
+  vtkNew<vtkCallbackCommand> noteRaysStart;
+  noteRaysStart->SetCallback(NoteTime);
+  noteRaysStart->SetClientData(&raysStart);
+  const unsigned long startObserver = mapper->AddObserver(vtkCommand::StartEvent, noteRaysStart);
+  const auto preparationMs = [&raysStart](std::chrono::steady_clock::time_point frameStart)
+  { return std::chrono::duration<double, std::milli>(raysStart - frameStart).count(); };
   std::cerr << "  " << result.Mapper << ": first frame..." << std::flush;
   auto start = std::chrono::steady_clock::now();
   if (!renderStereoFrame())
   {
     std::cerr << "\n";
     result.Note = "RenderStereoFrame failed (see the error above)";
+    mapper->RemoveObserver(startObserver);
     return result;
   }
   result.FirstFrameMs = MillisecondsSince(start);
+  result.FirstPrepareMs = preparationMs(start);
   std::cerr << " " << static_cast<int>(result.FirstFrameMs) << " ms; timing " << options.Frames
             << " frames..." << std::flush;
   const double cpuStart = ProcessCPUSeconds();
@@ -488,11 +538,20 @@ Result TimePathTracer(vtkPathTracedVolumeMapper* mapper, vtkVolume* volume,
     {
       std::cerr << "\n";
       result.Note = "RenderStereoFrame failed (see the error above)";
+      mapper->RemoveObserver(startObserver);
       return result;
     }
     result.FrameMs.push_back(MillisecondsSince(start));
   }
   result.CPUSeconds = ProcessCPUSeconds() - cpuStart;
+  result.TransferChangeFrameMs = TimeAfterOpacityChange(volume->GetProperty(),
+    [&]()
+    {
+      start = std::chrono::steady_clock::now();
+      return renderStereoFrame();
+    });
+  result.TransferChangePrepareMs = preparationMs(start);
+  mapper->RemoveObserver(startObserver);
   std::cerr << " done\n";
   result.Ran = true;
   if (model == "path-traced" && options.NoiseFrames > 1)
@@ -628,6 +687,12 @@ Result TimeWindowMapper(const std::string& label, const std::string& fileTag,
     result.Note = note.str();
     return result;
   }
+  result.TransferChangeFrameMs = TimeAfterOpacityChange(property,
+    [&]()
+    {
+      renderStereoFrame();
+      return error.empty();
+    });
   result.Ran = true;
 
   for (int eye = 0; eye < 2; ++eye)
@@ -869,8 +934,8 @@ int main(int argc, char* argv[])
   std::printf(
     "timed frames per mapper: %d after the first; wall-clock, std::chrono::steady_clock\n\n",
     options.Frames);
-  std::printf("%-56s %12s %24s %10s %20s\n", "mapper", "first frame", "median ms/stereo frame",
-    "mean", "rays or samples/s");
+  std::printf("%-56s %12s %24s %10s %20s %18s\n", "mapper", "first frame", "median ms/stereo frame",
+    "mean", "rays or samples/s", "after TF change");
   const Result* pathTraced = nullptr;
   const Result* fixedPoint = nullptr;
   for (const Result& result : results)
@@ -886,8 +951,14 @@ int main(int argc, char* argv[])
       rate, sizeof(rate), "%.3g %s", result.WorkPerFrame / (median / 1000.0), result.WorkUnit);
     char first[32];
     std::snprintf(first, sizeof(first), "%.0f ms", result.FirstFrameMs);
-    std::printf("%-56s %12s %24.1f %10.1f %20s\n", result.Mapper.c_str(), first, median,
-      Mean(result.FrameMs), rate);
+    char transferChange[32] = "failed";
+    if (result.TransferChangeFrameMs >= 0.0)
+    {
+      std::snprintf(
+        transferChange, sizeof(transferChange), "%.1f ms", result.TransferChangeFrameMs);
+    }
+    std::printf("%-56s %12s %24.1f %10.1f %20s %18s\n", result.Mapper.c_str(), first, median,
+      Mean(result.FrameMs), rate, transferChange);
     if (!result.Note.empty())
     {
       std::printf("%-56s (%s)\n", "", result.Note.c_str());
@@ -912,6 +983,16 @@ int main(int argc, char* argv[])
   else
   {
     std::printf("ratio path-traced / fixed-point: not available (fixed-point row missing)\n");
+  }
+  std::printf("\nthe path tracer's preparation before its rays start, ms (first frame: loading "
+              "and classifying the volume; after the opacity change: classifying it again)\n");
+  for (const Result& result : results)
+  {
+    if (result.Ran && result.FirstPrepareMs >= 0.0)
+    {
+      std::printf("  %-56s first frame %7.1f   after TF change %7.1f\n", result.Mapper.c_str(),
+        result.FirstPrepareMs, result.TransferChangePrepareMs);
+    }
   }
 
   // Roulette trades noise for time: weigh them together.

@@ -152,7 +152,7 @@ inline void makeBall(hv::VolumeGrid& grid, const glm::vec3& albedo)
 }
 
 // A path-traced scene of the grid under the environment, shown behind it (white furnace).
-inline hv::SceneView furnaceScene(const hv::VolumeGrid& grid, const hv::EnvironmentMap& environment)
+inline hv::SceneView furnaceScene(hv::VolumeGrid& grid, const hv::EnvironmentMap& environment)
 {
   hv::SceneView scene;
   scene.volume = grid.view();

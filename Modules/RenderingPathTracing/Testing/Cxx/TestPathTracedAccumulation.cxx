@@ -208,5 +208,26 @@ int TestPathTracedAccumulation(int, char*[])
   render();
   expect(scene.Mapper->GetAccumulatedFrames(0) == 1,
     "no accumulation when ProgressiveAccumulation is off");
+
+  // A restart writes the new frame's samples over the old sum (which is not zeroed first): after
+  // 8 frames and ResetAccumulation(), a frame is as far from the converged image as a first
+  // frame is, not 9 frames' radiance over one; the same after 8 frames at a larger size.
+  for (const int earlierSize : { size, size + 16 })
+  {
+    pathtracingtest::OffscreenScene restarted;
+    for (int frame = 0; frame < 8; ++frame)
+    {
+      restarted.Mapper->RenderEye(
+        restarted.Volume, 0, restarted.View[0], restarted.Projection[0], earlierSize, earlierSize);
+    }
+    restarted.Mapper->ResetAccumulation();
+    restarted.Mapper->RenderEye(
+      restarted.Volume, 0, restarted.View[0], restarted.Projection[0], size, size);
+    const double error = RootMeanSquareError(Radiance(restarted.Mapper), converged);
+    std::cout << "RMSE of a frame after 8 frames at " << earlierSize << "x" << earlierSize
+              << " and a restart: " << error << " (first frame " << errors[0] << ")\n";
+    expect(std::abs(error / errors[0] - 1.0) < 0.25,
+      "a restarted sum holds the new frame's samples only");
+  }
   return failures == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
 }

@@ -3,6 +3,7 @@
 #ifndef hv_denoise_StereoDenoiser_h
 #define hv_denoise_StereoDenoiser_h
 
+#include "hv/ParallelFor.h"
 #include "hv/denoise/DenoiseKernels.h"
 
 #include <cstdint>
@@ -185,10 +186,9 @@ struct DenoiserStatistics
 class StereoDenoiser
 {
 public:
-  // Runs body(begin, end) over [0, count) in parallel chunks; serial by default. The VTK
-  // adapter passes vtkSMPTools::For.
-  using ParallelFor = std::function<void(
-    std::int64_t count, const std::function<void(std::int64_t, std::int64_t)>& body)>;
+  // Runs body(begin, end) over [0, count) in parallel chunks (hv/ParallelFor.h); serial by
+  // default. The VTK adapter passes vtkSMPTools::For.
+  using ParallelFor = hv::ParallelFor;
 
   StereoDenoiser();
   ~StereoDenoiser();
