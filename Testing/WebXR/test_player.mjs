@@ -362,21 +362,30 @@ async function runXR() {
     window.xrDevice.quaternion.set(0, 0, 0, 1); // looking along −Z, at the volume
   }, [center[0], center[1], center[2] + 2.5]);
   const latencies = [];
+  const drawnBefore = (await player(page)).framesDrawn;
+  const samplingStart = Date.now();
   for (let i = 0; i < 20; i++) {
     await page.waitForTimeout(200);
     latencies.push((await player(page)).lastPoseToDisplayMs);
   }
+  const drawnDuring = (await player(page)).framesDrawn - drawnBefore;
+  const pageFrameMs = (Date.now() - samplingStart) / Math.max(drawnDuring, 1);
   await page.evaluate(({ position, quaternion }) => {
     window.xrDevice.position.set(...position);
     window.xrDevice.quaternion.set(...quaternion);
   }, lastStation);
   const worstLatency = Math.max(...latencies.map((ms) => ms ?? Infinity));
-  // A loaded machine renders slower; allow three of the server's own frame times on top.
+  // A loaded machine renders, decodes and draws slower; allow three frame times on top, the
+  // server's own or the page's (frames drawn over the samples), whichever is longer. With flow
+  // control at most two frames wait, so the latency stays within a few frames; a backlog grows
+  // past any such bound (before flow control, by a second every few seconds). With other
+  // tests on both cores the page drew 1 frame a second here and its latency reached 1.9 s.
   const stats = (await player(page)).stats ?? {};
-  const frameMs = (stats.renderMs ?? 0) + (stats.denoiseMs ?? 0) + (stats.encodeMs ?? 0);
+  const serverFrameMs = (stats.renderMs ?? 0) + (stats.denoiseMs ?? 0) + (stats.encodeMs ?? 0);
+  const frameMs = Math.max(serverFrameMs, pageFrameMs);
   const latencyLimit = MAX_POSE_TO_DISPLAY_MS + 3 * frameMs;
   check('xr: pose-to-display latency stays bounded (no frame backlog)', worstLatency < latencyLimit,
-    `worst of ${latencies.length} samples over 4 s from 2.5 m away: ${worstLatency.toFixed(0)} ms (limit ${MAX_POSE_TO_DISPLAY_MS} ms + 3 × ${frameMs.toFixed(0)} ms server frame time)`);
+    `worst of ${latencies.length} samples over 4 s from 2.5 m away: ${worstLatency.toFixed(0)} ms (limit ${MAX_POSE_TO_DISPLAY_MS} ms + 3 × ${frameMs.toFixed(0)} ms, the longer of the server's frame time, ${serverFrameMs.toFixed(0)} ms, and the page's, ${pageFrameMs.toFixed(0)} ms: ${drawnDuring} frames drawn)`);
 
   // A malformed message gets an `error`, the connection stays open and frames keep coming.
   const before = await page.evaluate(() => {
