@@ -1071,22 +1071,10 @@ int Serve(const Options& options, vtkPathTracedVolumeMapper* mapper, vtkVolume* 
   mapper->RemoveObservers(vtkCommand::ProgressEvent);
 
   // Presets the viewer can switch between: the whole head, a translucent head, and the
-  // tissue inside the skin (T1: brain 70-130, skin and fat from ~35).
+  // tissue inside the skin.
   vtkNew<vtkVolumeProperty> translucent, inner;
-  holovolume::ApplyHeadMRIPreset(translucent, scalarMaximum);
-  holovolume::ApplyHeadMRIPreset(inner, scalarMaximum);
-  const double s = scalarMaximum / 255.0;
-  vtkNew<vtkPiecewiseFunction> translucentOpacity, innerOpacity;
-  translucentOpacity->AddPoint(0.0, 0.0);
-  translucentOpacity->AddPoint(28.0 * s, 0.0);
-  translucentOpacity->AddPoint(40.0 * s, 0.08);
-  translucentOpacity->AddPoint(255.0 * s, 0.3);
-  translucent->SetScalarOpacity(translucentOpacity);
-  innerOpacity->AddPoint(0.0, 0.0);
-  innerOpacity->AddPoint(75.0 * s, 0.0);
-  innerOpacity->AddPoint(95.0 * s, 0.9);
-  innerOpacity->AddPoint(255.0 * s, 0.98);
-  inner->SetScalarOpacity(innerOpacity);
+  holovolume::ApplyTranslucentHeadPreset(translucent, scalarMaximum);
+  holovolume::ApplyInnerTissuePreset(inner, scalarMaximum);
 
   vtkNew<vtkHoloLensRemotingOutput> output;
   output->SetVolume(volume);

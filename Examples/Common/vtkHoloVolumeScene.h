@@ -63,23 +63,32 @@ inline vtkSmartPointer<vtkImageData> ReadVolume(const std::string& path)
   return volume && volume->GetNumberOfPoints() > 0 ? volume : nullptr;
 }
 
+// The head presets' scalar opacity, scalars on an 8-bit scale (scaled to scalarMaximum): none up
+// to `transparentUpTo`, rising to `rampOpacity` at `rampEnd` and to `maximumOpacity` at the top.
+inline void SetThresholdOpacity(vtkVolumeProperty* property, double scalarMaximum,
+  double transparentUpTo, double rampEnd, double rampOpacity, double maximumOpacity)
+{
+  const double s = scalarMaximum / 255.0;
+  vtkNew<vtkPiecewiseFunction> opacity;
+  opacity->AddPoint(0.0, 0.0);
+  opacity->AddPoint(transparentUpTo * s, 0.0);
+  opacity->AddPoint(rampEnd * s, rampOpacity);
+  opacity->AddPoint(255.0 * s, maximumOpacity);
+  property->SetScalarOpacity(opacity);
+}
+
 // Transfer function for an 8-bit T1-weighted head MRI such as ch2 (MNI space, 1 mm):
 // background below ~25, scalp and skin from ~35 on, brain tissue 70-130. Opacity per 1 mm.
 inline void ApplyHeadMRIPreset(vtkVolumeProperty* property, double scalarMaximum = 255.0)
 {
   const double s = scalarMaximum / 255.0;
-  vtkNew<vtkPiecewiseFunction> opacity;
-  opacity->AddPoint(0.0, 0.0);
-  opacity->AddPoint(28.0 * s, 0.0);
-  opacity->AddPoint(40.0 * s, 0.9);
-  opacity->AddPoint(255.0 * s, 0.98);
+  SetThresholdOpacity(property, scalarMaximum, 28.0, 40.0, 0.9, 0.98);
   vtkNew<vtkColorTransferFunction> color;
   color->AddRGBPoint(0.0, 0.80, 0.55, 0.45);
   color->AddRGBPoint(45.0 * s, 0.85, 0.62, 0.52);
   color->AddRGBPoint(90.0 * s, 0.92, 0.78, 0.70);
   color->AddRGBPoint(140.0 * s, 0.97, 0.93, 0.88);
   color->AddRGBPoint(255.0 * s, 1.0, 1.0, 1.0);
-  property->SetScalarOpacity(opacity);
   property->SetColor(color);
   property->SetScalarOpacityUnitDistance(1.0);
   property->SetInterpolationTypeToLinear();
@@ -88,6 +97,22 @@ inline void ApplyHeadMRIPreset(vtkVolumeProperty* property, double scalarMaximum
   property->SetDiffuse(0.8);
   property->SetSpecular(0.2);
   property->SetSpecularPower(20.0);
+}
+
+// The head MRI preset made translucent: the same threshold and colours, an opacity of 0.08 at
+// the skin rising to 0.3, so that what lies under the skin shows through it.
+inline void ApplyTranslucentHeadPreset(vtkVolumeProperty* property, double scalarMaximum = 255.0)
+{
+  ApplyHeadMRIPreset(property, scalarMaximum);
+  SetThresholdOpacity(property, scalarMaximum, 28.0, 40.0, 0.08, 0.3);
+}
+
+// The tissue inside the skin: the head MRI preset with its threshold raised to 75-95 (T1: brain
+// 70-130, skin and fat from ~35).
+inline void ApplyInnerTissuePreset(vtkVolumeProperty* property, double scalarMaximum = 255.0)
+{
+  ApplyHeadMRIPreset(property, scalarMaximum);
+  SetThresholdOpacity(property, scalarMaximum, 75.0, 95.0, 0.9, 0.98);
 }
 
 // Maps the environment map's frame (+Y zenith) to a RAS world (+Z superior), with the

@@ -33,6 +33,8 @@ public:
   bool HasFrame = false;
   bool HasClassificationStamp = false;
   int ClassificationStamp = 0;
+  bool HasDataStamp = false;
+  int DataStamp = 0;
   bool HasIlluminationFrame = false;
   double IlluminationFrame = 0.0;
   double LastIlluminationDifference = 0.0;
@@ -328,18 +330,32 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
     }
   }
 
-  // The transfer function or the data changed: the history shows another volume.
-  double stamp;
+  // The transfer function or the data changed: the history shows another volume. New data
+  // always drops it; a new transfer function alone may relight it instead. Images without a
+  // "DataStamp" cannot tell the two apart, and drop it.
+  double stamp, dataStamp;
+  const bool hasDataStamp = FieldValue(inputs[0], "DataStamp", dataStamp);
   if (FieldValue(inputs[0], "ClassificationStamp", stamp))
   {
     if (internals.HasClassificationStamp && static_cast<int>(stamp) != internals.ClassificationStamp)
     {
-      internals.Denoiser.reset();
-      internals.HasFrame = false;
+      const bool sameData = hasDataStamp && internals.HasDataStamp &&
+        static_cast<int>(dataStamp) == internals.DataStamp;
+      if (sameData && this->RelightHistoryOnTransferFunctionChange)
+      {
+        internals.Denoiser.relightHistoryForNewClassification();
+      }
+      else
+      {
+        internals.Denoiser.reset();
+        internals.HasFrame = false;
+      }
     }
     internals.HasClassificationStamp = true;
     internals.ClassificationStamp = static_cast<int>(stamp);
   }
+  internals.HasDataStamp = hasDataStamp;
+  internals.DataStamp = hasDataStamp ? static_cast<int>(dataStamp) : 0;
 
   // The same input images as last time: a parameter changed, the frame is denoised again.
   bool sameFrame = internals.HasFrame;
@@ -484,6 +500,8 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "SpatialFilter: " << (this->SpatialFilter ? "On" : "Off") << "\n";
   os << indent << "StereoBlend: " << (this->StereoBlend ? "On" : "Off") << "\n";
   os << indent << "DemodulateAlbedo: " << (this->DemodulateAlbedo ? "On" : "Off") << "\n";
+  os << indent << "RelightHistoryOnTransferFunctionChange: "
+     << (this->RelightHistoryOnTransferFunctionChange ? "On" : "Off") << "\n";
   os << indent << "CoverageAgreementWidth: " << this->CoverageAgreementWidth << "\n";
   os << indent << "CrossViewCoverageWidth: " << this->CrossViewCoverageWidth << "\n";
   os << indent << "AlbedoSigma: " << this->AlbedoSigma << "\n";

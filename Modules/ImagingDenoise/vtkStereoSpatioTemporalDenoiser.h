@@ -36,7 +36,9 @@
  * The filter keeps each eye's history between executions. A new frame is an execution whose
  * inputs changed; an execution after a mere parameter change denoises the same frame again
  * from the history it started with. The history is dropped on ResetHistory(), on an image
- * size change, and when the mapper's "ClassificationStamp" (transfer function, data) changes.
+ * size change, and when the mapper's "ClassificationStamp" (transfer function, data) changes;
+ * with RelightHistoryOnTransferFunctionChange on, a change of the transfer function alone
+ * (the mapper's "DataStamp" the same) relights the history instead.
  * Per-pixel work runs with vtkSMPTools; results do not depend on the number of threads.
  */
 
@@ -87,6 +89,24 @@ public:
    * Forget both eyes' history; the next frame is filtered spatially only.
    */
   void ResetHistory();
+
+  ///@{
+  /**
+   * What a change of the transfer function alone does to the history (the mapper's
+   * "ClassificationStamp" changed, its "DataStamp" did not). Off (default): the history is
+   * dropped, and the frame is filtered spatially only. On: the frame counts as a complete
+   * change of light (T = 1): each pixel keeps its history where its first scatter point passes
+   * the disocclusion tests, relit by the local ratio of the new frame to it (RelightingRadius,
+   * RelitHistoryRejection), and the albedo, which the new colours changed, is left out of that
+   * frame's temporal weight. Meant for interactive editing (window and level, opacity), where
+   * each frame brings a new transfer function and a dropped history would leave every frame
+   * at the spatial filter's quality; new data always drops the history. Has no effect with
+   * RelightingRadius 0 or an exponential average.
+   */
+  vtkSetMacro(RelightHistoryOnTransferFunctionChange, bool);
+  vtkGetMacro(RelightHistoryOnTransferFunctionChange, bool);
+  vtkBooleanMacro(RelightHistoryOnTransferFunctionChange, bool);
+  ///@}
 
   ///@{
   /**
@@ -421,6 +441,7 @@ protected:
   bool SpatialFilter = true;
   bool StereoBlend = true;
   bool DemodulateAlbedo = true;
+  bool RelightHistoryOnTransferFunctionChange = false;
   double CoverageAgreementWidth = 2.0;
   double CrossViewCoverageWidth = 1.0;
   double AlbedoSigma = 0.1;

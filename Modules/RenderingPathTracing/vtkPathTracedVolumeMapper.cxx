@@ -152,6 +152,7 @@ public:
   bool EnvironmentValid = false;
   vtkMTimeType SceneKey = 0;
   int ClassificationStamp = 0;
+  int DataStamp = 0;                        // changes with the scalars alone
   glm::mat4 VolumeMatrix = glm::mat4(1.0f); // the prop's matrix: world from volume
   std::array<EyeState, 2> Eyes;
   // The right eye's matrices of the last denoised stereo window frame, whose second pass
@@ -407,6 +408,7 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
     input->GetExtent(internals->Extent);
     internals->ScalarsInput = input;
     internals->ScalarsTime = scalarsTime;
+    ++internals->DataStamp;
     internals->TransferTime = 0; // force reclassification
   }
 
@@ -918,6 +920,7 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
     SetFieldInt(output, "AccumulatedFrames", frames);
     SetFieldInt(output, "Eye", eyeIndex);
     SetFieldInt(output, "ClassificationStamp", internals->ClassificationStamp);
+    SetFieldInt(output, "DataStamp", internals->DataStamp);
     SetFieldMatrix(output, "VolumeMatrix", internals->VolumeMatrix);
     output->Modified();
   }

@@ -343,9 +343,10 @@ public:
    * (float, normalised to [0, 1]). Field data: "ViewMatrix", "ProjectionMatrix" (16 doubles,
    * row-major as vtkMatrix4x4), "FrameIndex", "AccumulatedFrames", "Eye", and
    * "ClassificationStamp", which changes when the data or the transfer function does (a
-   * denoiser drops its history then), and "VolumeMatrix" (the vtkVolume's matrix, world from
-   * volume, 16 doubles row-major), with which a denoiser follows a moving volume.
-   * The images also exist after rendering into a window. Do not modify them.
+   * denoiser drops its history then), "DataStamp", which changes with the data alone (a
+   * denoiser may relight its history for a new transfer function), and "VolumeMatrix" (the
+   * vtkVolume's matrix, world from volume, 16 doubles row-major), with which a denoiser follows a
+   * moving volume. The images also exist after rendering into a window. Do not modify them.
    */
   vtkImageData* GetEyeOutput(int eye);
 

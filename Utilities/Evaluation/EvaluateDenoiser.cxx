@@ -2,12 +2,14 @@
 // Copyright (c) 2026 the HoloVolume developers.
 //
 // holovolume-denoise-evaluation: the stereo denoiser against converged references on the real
-// head MRI under a real HDR panorama, in four sequences of 2-spp stereo frames: (a) a static
+// head MRI under a real HDR panorama, in five sequences of 2-spp stereo frames: (a) a static
 // view, (b) an orbiting camera, (c) a rotating environment, (d) a lamp switched on halfway
-// (T measured by vtkEnvironmentSyncedLight). Per sequence and method (raw, spatial only,
-// temporal only, D1, D1 + D2): PSNR and SSIM of display values against a per-frame reference,
-// flicker, the inter-eye discrepancy, and for (d) the frames until the PSNR recovers, against
-// the frame before the lamp and against the same frames with the lamp on all along.
+// (T measured by vtkEnvironmentSyncedLight), (e) a new transfer function halfway (a raised
+// opacity threshold and other colours, as a user editing it would set). Per sequence and
+// method (raw, spatial only, temporal only, D1, D1 + D2): PSNR and SSIM of display values
+// against a per-frame reference, flicker, the inter-eye discrepancy, and for (d) and (e) the
+// frames until the PSNR recovers, against the frame before the change and against the same
+// frames with the lamp or the new transfer function all along.
 #include "vtkEnvironmentMapReader.h"
 #include "vtkEnvironmentSyncedLight.h"
 #include "vtkHoloVolumeScene.h"
@@ -19,11 +21,14 @@
 #include "hv/denoise/DenoiseKernels.h"
 #include "hv/denoise/ImageQuality.h"
 
+#include "vtkColorTransferFunction.h"
 #include "vtkFieldData.h"
 #include "vtkFloatArray.h"
 #include "vtkIntArray.h"
+#include "vtkPiecewiseFunction.h"
 #include "vtkPointData.h"
 #include "vtkStringArray.h"
+#include "vtkVolumeProperty.h"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -50,12 +55,15 @@ struct Options
   int Height = 104;
   int Frames = 60;
   int ReferenceSamples = 1024;
-  std::string Sequences = "static,orbit,rotate,switch";
+  std::string Sequences = "static,orbit,rotate,switch,edit";
   std::string Images;
   int SwitchRuns = 4;
   int WaveletLevels = -1;             // the denoiser's default
   int WaveletLongHistory = -1;        // the denoiser's default
   int StratifiedSubpixelSamples = -1; // the mapper's default
+  bool RelightOnTransferFunctionChange = false;
+  int EditFrames = 1;
+  std::string EditTarget = "threshold";
 };
 
 void Usage()
@@ -64,8 +72,9 @@ void Usage()
 
 Measures vtkStereoSpatioTemporalDenoiser against converged path-traced references on the real
 head MRI under a real HDR panorama. Prints a Markdown table per sequence. After the light
-switch, the frames to recover are counted against the frame before the lamp and against a
-control: the same frames denoised with a history gathered under the lamp all along.
+switch and the new transfer function, the frames to recover are counted against the frame
+before the change and against a control: the same frames denoised with a history gathered
+under the lamp, or with the new transfer function, all along.
 
   --volume FILE          [/usr/share/mricron/templates/ch2.nii.gz, package mricron-data]
   --environment FILE     HDR panorama [blender-data's courtyard.exr]
@@ -74,11 +83,23 @@ control: the same frames denoised with a history gathered under the lamp all alo
   --frames N             stereo frames per sequence, 4 to 100000 [60]
   --reference-spp N      samples per pixel of each frame's reference, 64 to 1048576 [1024];
                          the static view's reference and the raw-spp curve use 4x this
-  --sequences LIST       any of static,orbit,rotate,switch [all]
+  --sequences LIST       any of static,orbit,rotate,switch,edit [all]
   --images DIR           write thumbnail strips (left eye) as PNG into DIR
-  --switch-runs N        repeat the light switch N times with independent random numbers,
-                         1 to 1000 [4]: one 2-spp frame's PSNR varies by a few tenths of a dB, as much
-                         as the recovery criterion's margin; its figures are means over runs
+  --switch-runs N        repeat the light switch and the new transfer function N times with
+                         independent random numbers, 1 to 1000 [4]: one 2-spp frame's PSNR
+                         varies by a few tenths of a dB, as much as the recovery criterion's
+                         margin; their figures are means over runs
+  --edit-frames N         the new transfer function comes in N steps, one a frame, as a user
+                         dragging an opacity control would make them, 1 to 1000 [1]; the
+                         control compares from the last step on
+  --edit-to NAME         the transfer function the edit ends with: threshold (the head MRI
+                         preset's opacity threshold raised from 28-40 to 40-56 of 255, cooler
+                         colours), or the application's presets translucent and inner-tissue
+                         [threshold]
+  --relight-on-transfer-function-change
+                         every denoiser relights its history for the new transfer function
+                         instead of dropping it (vtkStereoSpatioTemporalDenoiser::
+                         SetRelightHistoryOnTransferFunctionChange; off by default)
   --wavelet-levels N     a-trous levels of every denoiser's spatial filter, 0 to 10 [the
                          denoiser's default, 4]: its quality against its cost, which
                          holovolume-denoise-benchmark --wavelet-levels N measures
@@ -641,6 +662,80 @@ vtkSmartPointer<vtkImageData> Rotated(vtkImageData* base, int columns)
 }
 }
 
+// The transfer function the edit ends with: "threshold", the head MRI preset as a user might
+// edit it (the opacity threshold raised from 28-40 to 40-56 of 255, which clears the faintest
+// tissue, and cooler colours), or one of the application's presets for the headset,
+// "translucent" or "inner-tissue"; nullptr for another name.
+vtkSmartPointer<vtkVolumeProperty> EditTarget(const std::string& name, double scalarMaximum)
+{
+  auto property = vtkSmartPointer<vtkVolumeProperty>::New();
+  if (name == "translucent")
+  {
+    holovolume::ApplyTranslucentHeadPreset(property, scalarMaximum);
+    return property;
+  }
+  if (name == "inner-tissue")
+  {
+    holovolume::ApplyInnerTissuePreset(property, scalarMaximum);
+    return property;
+  }
+  if (name != "threshold")
+  {
+    return nullptr;
+  }
+  holovolume::ApplyHeadMRIPreset(property, scalarMaximum);
+  holovolume::SetThresholdOpacity(property, scalarMaximum, 40.0, 56.0, 0.9, 0.98);
+  const double s = scalarMaximum / 255.0;
+  vtkNew<vtkColorTransferFunction> color;
+  color->AddRGBPoint(0.0, 0.60, 0.62, 0.75);
+  color->AddRGBPoint(60.0 * s, 0.70, 0.74, 0.85);
+  color->AddRGBPoint(140.0 * s, 0.90, 0.92, 0.96);
+  color->AddRGBPoint(255.0 * s, 1.0, 1.0, 1.0);
+  property->SetColor(color);
+  return property;
+}
+
+// A step of the edit, `fraction` of the way from `from` to `to` (0 < fraction < 1): their
+// opacities and colours blended at 256 nodes over the scalar range, the way a user dragging
+// a control passes through the transfer functions in between.
+vtkSmartPointer<vtkVolumeProperty> EditStep(
+  vtkVolumeProperty* from, vtkVolumeProperty* to, double scalarMaximum, double fraction)
+{
+  auto property = vtkSmartPointer<vtkVolumeProperty>::New();
+  property->DeepCopy(to);
+  vtkNew<vtkPiecewiseFunction> opacity;
+  vtkNew<vtkColorTransferFunction> color;
+  for (int node = 0; node < 256; ++node)
+  {
+    const double x = scalarMaximum * node / 255.0;
+    const double a = from->GetScalarOpacity()->GetValue(x);
+    const double b = to->GetScalarOpacity()->GetValue(x);
+    opacity->AddPoint(x, a + fraction * (b - a));
+    double rgbFrom[3], rgbTo[3];
+    from->GetRGBTransferFunction()->GetColor(x, rgbFrom);
+    to->GetRGBTransferFunction()->GetColor(x, rgbTo);
+    color->AddRGBPoint(x, rgbFrom[0] + fraction * (rgbTo[0] - rgbFrom[0]),
+      rgbFrom[1] + fraction * (rgbTo[1] - rgbFrom[1]),
+      rgbFrom[2] + fraction * (rgbTo[2] - rgbFrom[2]));
+  }
+  property->SetScalarOpacity(opacity);
+  property->SetColor(color);
+  return property;
+}
+
+// A shallow copy of an eye image without the mapper's "ClassificationStamp" (the pixels and
+// the other fields shared), for a denoiser that must not see a change of transfer function.
+vtkSmartPointer<vtkImageData> WithoutClassificationStamp(vtkImageData* eye)
+{
+  auto copy = vtkSmartPointer<vtkImageData>::New();
+  copy->ShallowCopy(eye);
+  vtkNew<vtkFieldData> fields;
+  fields->ShallowCopy(eye->GetFieldData());
+  fields->RemoveArray("ClassificationStamp");
+  copy->SetFieldData(fields);
+  return copy;
+}
+
 int main(int argc, char* argv[])
 {
   Options options;
@@ -686,6 +781,21 @@ int main(int argc, char* argv[])
       options.Images = value();
     else if (arg == "--switch-runs")
       options.SwitchRuns = holovolume::IntegerOption(program, "--switch-runs", value(), 1, 1000);
+    else if (arg == "--edit-frames")
+      options.EditFrames = holovolume::IntegerOption(program, "--edit-frames", value(), 1, 1000);
+    else if (arg == "--edit-to")
+    {
+      options.EditTarget = value();
+      if (!EditTarget(options.EditTarget, 255.0))
+      {
+        std::cerr << "holovolume-denoise-evaluation: --edit-to wants threshold, translucent or "
+                     "inner-tissue, not '"
+                  << options.EditTarget << "'\n";
+        return 2;
+      }
+    }
+    else if (arg == "--relight-on-transfer-function-change")
+      options.RelightOnTransferFunctionChange = true;
     else if (arg == "--wavelet-levels")
     {
       vtkNew<vtkStereoSpatioTemporalDenoiser> limits;
@@ -728,6 +838,9 @@ int main(int argc, char* argv[])
   volumeData->GetScalarRange(range);
   vtkNew<vtkVolumeProperty> property;
   holovolume::ApplyHeadMRIPreset(property, range[1] > 0 ? range[1] : 255.0);
+  const double scalarMaximum = range[1] > 0 ? range[1] : 255.0;
+  const vtkSmartPointer<vtkVolumeProperty> editedProperty =
+    EditTarget(options.EditTarget, scalarMaximum);
   vtkNew<vtkEnvironmentMapReader> reader;
   reader->SetFileName(options.Environment.c_str());
   reader->Update();
@@ -842,6 +955,14 @@ int main(int argc, char* argv[])
   std::printf("\nsubpixel samples of every render: %s\n",
     options.StratifiedSubpixelSamples ? "stratified (each pixel's rotated R2 sequence)"
                                       : "random (independent uniform positions)");
+  if (options.Sequences.find("edit") != std::string::npos)
+  {
+    std::printf("\nthe new transfer function (sequence edit): %s, in %d step%s, every "
+                "denoiser's history %s\n",
+      options.EditTarget.c_str(), options.EditFrames, options.EditFrames > 1 ? "s" : "",
+      options.RelightOnTransferFunctionChange ? "relit (--relight-on-transfer-function-change)"
+                                              : "dropped (the default)");
+  }
   if (options.WaveletLevels >= 0)
   {
     std::printf("\nwavelet levels of every denoiser: %d\n", options.WaveletLevels);
@@ -934,12 +1055,18 @@ int main(int argc, char* argv[])
   std::string sequence;
   while (std::getline(list, sequence, ','))
   {
-    if (sequence != "static" && sequence != "orbit" && sequence != "rotate" && sequence != "switch")
+    if (sequence != "static" && sequence != "orbit" && sequence != "rotate" &&
+      sequence != "switch" && sequence != "edit")
     {
       std::cerr << "holovolume-denoise-evaluation: unknown sequence '" << sequence << "'\n";
       return 2;
     }
     std::cerr << "sequence " << sequence;
+    // The light switch and the new transfer function: one change halfway, counted against the
+    // frame before it and against a control with the change made from the start.
+    const bool edit = sequence == "edit";
+    const bool stepChange = sequence == "switch" || edit;
+    const char* allAlong = edit ? "new transfer function all along" : "lamp on all along";
     Accumulator results[MethodCount];
     Accumulator referenceFlicker;
     std::size_t pairCount = 0, centredPairCount = 0; // over the frames of the first run
@@ -956,9 +1083,9 @@ int main(int argc, char* argv[])
     // the reference, for the close-up of the silhouette.
     std::vector<float> silhouette[3];
     const int thumbnailFrame = sequence == "static" ? std::min(15, options.Frames - 1)
-      : sequence == "switch"                        ? switchFrame + 1
+      : stepChange                                  ? switchFrame + 1
                                                     : options.Frames - 1;
-    const int runs = sequence == "switch" ? options.SwitchRuns : 1;
+    const int runs = stepChange ? options.SwitchRuns : 1;
     // Over the runs, each pixel's mean error is its bias and its spread the noise: the left
     // eye's display values of D1 and both D2s at a few frames around the switch.
     // Those of a short sequence that lie beyond its end are left out.
@@ -976,7 +1103,7 @@ int main(int argc, char* argv[])
     std::map<int, std::vector<float>> splitReferences;
     // The references' random numbers too depend on the sequence alone (the static view's was
     // rendered above with seed 7919).
-    const char* sequenceNames[] = { "static", "orbit", "rotate", "switch" };
+    const char* sequenceNames[] = { "static", "orbit", "rotate", "switch", "edit" };
     const auto sequenceIndex =
       std::find(std::begin(sequenceNames), std::end(sequenceNames), sequence) -
       std::begin(sequenceNames);
@@ -994,10 +1121,13 @@ int main(int argc, char* argv[])
       // switch on it denoises the raw frames themselves.
       lampAllAlong->SetSeed(static_cast<vtkTypeUInt32>(repetition));
       lampAllAlong->SetFrameIndex(0);
-      lampAllAlong->SetEnvironmentMapData(lampOn);
+      lampAllAlong->SetEnvironmentMapData(edit ? baseEnvironment.Get() : lampOn.Get());
+      rawVolume->SetProperty(property);
+      twinVolume->SetProperty(property);
+      lampAllAlongVolume->SetProperty(edit ? editedProperty.Get() : property.Get());
       // [run][method]: run 1 denoises the twin frames, run 2 (the light switch only) those with
       // the lamp on all along.
-      const bool control = sequence == "switch";
+      const bool control = stepChange;
       vtkNew<vtkStereoSpatioTemporalDenoiser> denoisers[3][MethodCount];
       for (auto& run : denoisers)
       {
@@ -1019,6 +1149,8 @@ int main(int argc, char* argv[])
         run[CoverageFilteredMethod]->SetCoverageAgreementWidth(0.0);
         for (int method = 0; method < MethodCount; ++method)
         {
+          run[method]->SetRelightHistoryOnTransferFunctionChange(
+            options.RelightOnTransferFunctionChange);
           if (options.WaveletLevels >= 0)
           {
             run[method]->SetWaveletLevels(options.WaveletLevels);
@@ -1066,6 +1198,20 @@ int main(int argc, char* argv[])
         {
           environment = lampOn;
         }
+        // The edit: over options.EditFrames frames from the switch frame on, each a step of it.
+        vtkSmartPointer<vtkVolumeProperty> editing;
+        if (edit && frame >= switchFrame && frame < switchFrame + options.EditFrames)
+        {
+          const double fraction =
+            static_cast<double>(frame - switchFrame + 1) / static_cast<double>(options.EditFrames);
+          editing = fraction < 1.0 ? EditStep(property, editedProperty, scalarMaximum, fraction)
+                                   : editedProperty;
+          rawVolume->SetProperty(editing);
+          twinVolume->SetProperty(editing);
+        }
+        // The control compares once the change is complete (the edit's last step).
+        const bool controlMeasured =
+          frame >= switchFrame && (!edit || frame >= switchFrame + options.EditFrames - 1);
         raw->SetEnvironmentMapData(environment);
         twin->SetEnvironmentMapData(environment);
         // Each frame is a new camera frame for the synced light, even when the room is the same.
@@ -1085,7 +1231,7 @@ int main(int argc, char* argv[])
         };
         const double t = illuminationDifference(light, environment);
         const double lampAllAlongT =
-          control ? illuminationDifference(lampAllAlongLight, lampOn) : 0.0;
+          control ? illuminationDifference(lampAllAlongLight, edit ? environment : lampOn) : 0.0;
         if (repetition == 0)
         {
           illuminationDifferences.push_back(t);
@@ -1106,20 +1252,25 @@ int main(int argc, char* argv[])
         {
           current = &staticReference;
         }
-        else if (sequence == "switch")
+        else if (stepChange && !(editing && editing != editedProperty))
         {
-          const int lamp = frame >= switchFrame ? 1 : 0;
+          const int lamp = frame >= switchFrame ? 1 : 0; // or the new transfer function
           if (switchReference[lamp].eye[0].empty())
           {
+            referenceVolume->SetProperty(edit && lamp ? editedProperty.Get() : property.Get());
             renderReference(
               environment, views, projections, options.ReferenceSamples, switchReference[lamp]);
+            referenceVolume->SetProperty(property);
           }
           current = &switchReference[lamp];
         }
         else
         {
+          // A moving view or light, or a step of the edit.
+          referenceVolume->SetProperty(editing ? editing.Get() : property.Get());
           renderReference(
             environment, views, projections, options.ReferenceSamples, frameReference);
+          referenceVolume->SetProperty(property);
           current = &frameReference;
         }
 
@@ -1174,7 +1325,16 @@ int main(int argc, char* argv[])
           {
             vtkPathTracedVolumeMapper* source =
               frame < switchFrame ? lampAllAlong.Get() : raw.Get();
-            vtkImageData* eyes[2] = { source->GetEyeOutput(0), source->GetEyeOutput(1) };
+            vtkSmartPointer<vtkImageData> eyes[2] = { source->GetEyeOutput(0),
+              source->GetEyeOutput(1) };
+            if (edit)
+            {
+              // The control's volume never changed its transfer function; only the raw
+              // mapper's stamp counts the change, and its frames from the change on must not
+              // drop or relight the control's history.
+              eyes[0] = WithoutClassificationStamp(eyes[0]);
+              eyes[1] = WithoutClassificationStamp(eyes[1]);
+            }
             if (m > 0)
             {
               vtkStereoSpatioTemporalDenoiser* denoiser = denoisers[2][m];
@@ -1185,7 +1345,7 @@ int main(int argc, char* argv[])
               eyes[0] = denoiser->GetEyeOutput(0);
               eyes[1] = denoiser->GetEyeOutput(1);
             }
-            if (frame >= switchFrame)
+            if (controlMeasured)
             {
               a.lampAllAlongPsnrPerRunAndFrame.back()[frame] = 0.5 *
                 (hv::denoise::displayPSNR(Display(eyes[0]), references[0]) +
@@ -1266,17 +1426,17 @@ int main(int argc, char* argv[])
     // The control has the run's own frames from the switch on, so a method without a history
     // (raw, spatial only) must measure the same there to the last bit; if not, the control
     // compares more than the history and its recovery figures would mislead.
-    for (int m = 0; m < 2 && sequence == "switch"; ++m)
+    for (int m = 0; m < 2 && stepChange; ++m)
     {
       for (std::size_t r = 0; r < results[m].psnrPerRunAndFrame.size(); ++r)
       {
         for (int k = switchFrame; k < options.Frames; ++k)
         {
-          if (results[m].psnrPerRunAndFrame[r][k] !=
-            results[m].lampAllAlongPsnrPerRunAndFrame[r][k])
+          if (!std::isnan(results[m].lampAllAlongPsnrPerRunAndFrame[r][k]) &&
+            results[m].psnrPerRunAndFrame[r][k] != results[m].lampAllAlongPsnrPerRunAndFrame[r][k])
           {
-            std::cerr << "holovolume-denoise-evaluation: the light switch's control (the lamp on "
-                         "all along) measured "
+            std::cerr << "holovolume-denoise-evaluation: the " << sequence
+                      << " sequence's control (the " << allAlong << ") measured "
                       << results[m].lampAllAlongPsnrPerRunAndFrame[r][k] << " dB for '"
                       << MethodNames[m] << "' at frame " << k << " of run " << r + 1
                       << ", the run itself " << results[m].psnrPerRunAndFrame[r][k]
@@ -1318,14 +1478,14 @@ int main(int argc, char* argv[])
     {
       std::printf(" PSNR at frame 16 |");
     }
-    if (sequence == "switch")
+    if (stepChange)
     {
-      std::printf(" frames to recover | the same against the lamp on all along |");
+      std::printf(" frames to recover | the same against the %s |", allAlong);
     }
     std::printf("\n|---|---|---|---|---|---|---|---|%s\n",
-      sequence == "static"     ? "---|"
-        : sequence == "switch" ? "---|---|"
-                               : "");
+      sequence == "static" ? "---|"
+        : stepChange       ? "---|---|"
+                           : "");
     for (int m = 0; m < MethodCount; ++m)
     {
       const Accumulator& a = results[m];
@@ -1353,7 +1513,7 @@ int main(int argc, char* argv[])
         std::printf(" %.2f (%s%d spp) |", psnrPerFrame[at], spp16 < 0 ? "> " : "",
           static_cast<int>(std::lround(std::abs(spp16))));
       }
-      if (sequence == "switch")
+      if (stepChange)
       {
         // On the mean over the runs, then each run's own.
         auto text = [&](int recovered)
@@ -1453,13 +1613,14 @@ int main(int argc, char* argv[])
           ? 100.0 * static_cast<double>(silhouettePixels) / static_cast<double>(regionPixels)
           : 0.0);
     }
-    if (sequence == "switch")
+    if (stepChange)
     {
-      // The PSNR around the lamp, with the standard error of the mean over the runs: what
+      // The PSNR around the change, with the standard error of the mean over the runs: what
       // "frames to recover" reads.
       const int first = std::max(switchFrame - 2, 1);
       const int last = std::min(switchFrame + 10, options.Frames - 1);
-      std::printf("\n### PSNR dB around the switch (frame %d)%s\n\n| method |", switchFrame,
+      std::printf("\n### PSNR dB around the %s (frame %d)%s\n\n| method |",
+        edit ? "new transfer function" : "switch", switchFrame,
         runs > 1 ? ", mean ± standard error over the runs" : "");
       for (int k = first; k <= last; ++k)
       {
@@ -1481,7 +1642,8 @@ int main(int argc, char* argv[])
           ? results[m].lampAllAlongPsnrPerRunAndFrame
           : results[m].psnrPerRunAndFrame;
         const std::vector<double> mean = MeanPSNRPerFrame(perRun);
-        std::printf("| %s%s |", MethodNames[m], lampAllAlongRow ? ", lamp on all along" : "");
+        std::printf("| %s%s%s |", MethodNames[m], lampAllAlongRow ? ", " : "",
+          lampAllAlongRow ? allAlong : "");
         for (int k = first; k <= last; ++k)
         {
           double squares = 0.0;
@@ -1505,11 +1667,11 @@ int main(int argc, char* argv[])
         std::printf("\n");
       }
     }
-    if (sequence == "switch" && runs > 1)
+    if (stepChange && runs > 1)
     {
-      std::printf("\n### Where the error around the switch comes from (left eye, over the %d "
+      std::printf("\n### Where the error around the %s comes from (left eye, over the %d "
                   "runs)\n\n| method |",
-        runs);
+        edit ? "new transfer function" : "switch", runs);
       for (int frame : splitFrames)
       {
         std::printf(

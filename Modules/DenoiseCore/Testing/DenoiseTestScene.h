@@ -50,6 +50,11 @@ struct EyeBuffers
 struct SceneState
 {
   glm::vec3 squareCentre{ 0.0f, 0.0f, 1.5f }; // the floating square, 1.6 wide, facing +z
+  // What a transfer function decides: whether the square is seen at all (transparent: the
+  // wall behind it shows), and the colours of the wall's light and dark checker squares.
+  bool squareVisible = true;
+  glm::vec3 wallLightAlbedo{ 0.85f, 0.8f, 0.7f };
+  glm::vec3 wallDarkAlbedo{ 0.3f, 0.25f, 0.2f };
   float irradianceScale = 1.0f;                // the lighting: scales every radiance
   // A second light from +x: adds sideLight (1/2 + x / 6) to the irradiance factor, from 0 at
   // the wall's left edge to sideLight at its right edge; a change that differs over the image.
@@ -131,7 +136,7 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
       {
         const float t = (scene.squareCentre.z - origin.z) / direction.z;
         const glm::vec3 p = origin + t * direction;
-        if (t > 0.0f && std::abs(p.x - scene.squareCentre.x) < 0.8f &&
+        if (scene.squareVisible && t > 0.0f && std::abs(p.x - scene.squareCentre.x) < 0.8f &&
           std::abs(p.y - scene.squareCentre.y) < 0.8f)
         {
           hit = p;
@@ -149,7 +154,7 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
           hit = p;
           const bool dark =
             (static_cast<int>(std::floor(p.x / 0.5f)) + static_cast<int>(std::floor(p.y / 0.5f))) & 1;
-          albedo = dark ? glm::vec3(0.3f, 0.25f, 0.2f) : glm::vec3(0.85f, 0.8f, 0.7f);
+          albedo = dark ? scene.wallDarkAlbedo : scene.wallLightAlbedo;
           float irradiance = 1.0f + 0.5f * std::sin(1.3f * p.x) * std::cos(0.9f * p.y);
           if (std::abs(p.x - scene.squareCentre.x - scene.shadowShift.x) < 0.8f &&
             std::abs(p.y - scene.squareCentre.y - scene.shadowShift.y) < 0.8f)

@@ -1087,6 +1087,10 @@ struct StereoDenoiser::Internals
     }
   }
   int eyeCount = 0;
+  // relightHistoryForNewClassification() was called for the next new frame; whether the last
+  // frame was relit for one (a replaceLastFrame call repeats it).
+  bool newClassificationPending = false;
+  bool lastFrameNewClassification = false;
 
   // row(e, y, begin, end) over the spans of both eyes' rows.
   void forSpans(int eyeCount, int height, const std::function<void(int, int, int, int)>& row)
@@ -1337,6 +1341,13 @@ void StereoDenoiser::reset()
     eye.relightingAge = 0;
     std::fill(eye.historyInfo.begin(), eye.historyInfo.end(), HistoryInfo());
   }
+  this->Impl->newClassificationPending = false;
+  this->Impl->lastFrameNewClassification = false;
+}
+
+void StereoDenoiser::relightHistoryForNewClassification()
+{
+  this->Impl->newClassificationPending = true;
 }
 
 #ifndef HV_DENOISER_TUNE
@@ -1400,7 +1411,9 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
 {
   const auto start = Clock::now();
   Internals& impl = *this->Impl;
-  const DenoiserParameters& p = this->Parameters;
+  // This frame's parameters: a new transfer function changes one of them (below).
+  DenoiserParameters frameParameters = this->Parameters;
+  const DenoiserParameters& p = frameParameters;
   if (!eyes || eyeCount < 1 || eyeCount > 2 || !outputs)
   {
     error = "Give one eye (mono) or two (left, right) and an output buffer for each.";
@@ -1504,6 +1517,21 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       eye.resize(0, 0, impl.parallelFor);
     }
   }
+  // A new transfer function (relightHistoryForNewClassification) counts as a complete change
+  // of light, gate 0, so that the history is relit where it passes the disocclusion tests.
+  // Its albedo no longer says whether the history holds the same surface: the new colours
+  // changed it, while the history, demodulated by its own albedo, holds the incident light.
+  // Where the history cannot be relit (relighting off, or the exponential average, which
+  // does not use w_v), the new transfer function drops it for this frame instead.
+  const bool replacing = replaceLastFrame && impl.eyes[0].canReplace;
+  const bool newClassification =
+    replacing ? impl.lastFrameNewClassification : impl.newClassificationPending;
+  const bool canRelight =
+    p.temporalAccumulation && p.exponentialAverageAlpha <= 0.0f && p.relightingRadius > 0.0f;
+  if (newClassification)
+  {
+    frameParameters.temporal.albedoSigma = std::numeric_limits<float>::infinity();
+  }
   for (int e = 0; e < eyeCount; ++e)
   {
     if (impl.eyes[e].width != width || impl.eyes[e].height != height)
@@ -1515,6 +1543,11 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
     {
       eye.undoCommit();
     }
+    if (newClassification && !canRelight)
+    {
+      eye.hasPrevious = false;
+      eye.relightingAge = 0;
+    }
     eye.view = eyes[e].view;
     eye.viewProjection = eyes[e].projection * eyes[e].view;
     eye.volumeMatrix = eyes[e].volumeMatrix;
@@ -1523,10 +1556,11 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       : glm::mat4(1.0f);
   }
 
-  const float gate = p.temporalAccumulation
+  const float gate = p.temporalAccumulation && !newClassification
     ? temporalGate(illuminationDifference, p.sigmoidSteepness, p.sigmoidCentre)
     : 0.0f;
   this->Statistics.temporalGate = gate;
+  this->Statistics.newClassification = newClassification;
   const bool stereo = eyeCount == 2;
 
   // 1. Surfaces and demodulated radiance. A row's span covers its pixels with a first
@@ -2007,8 +2041,6 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
   // between the frame and the relit history, and the k-th refinement applies 1/(k+1) of it:
   // the correction becomes the running mean of k+1 independent estimates, its noise falls as
   // 1/sqrt(k+1), and the light's true change is applied once.
-  const bool canRelight =
-    useHistory && p.exponentialAverageAlpha <= 0.0f && p.relightingRadius > 0.0f;
   bool relightEye[2] = { false, false };
   float relightingGain[2] = { 0.0f, 0.0f };
   for (int e = 0; e < eyeCount; ++e)
@@ -2748,6 +2780,11 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
     eye.commit();
   }
   this->Statistics.milliseconds[5] = millisecondsSince(start);
+  impl.lastFrameNewClassification = newClassification;
+  if (!replacing)
+  {
+    impl.newClassificationPending = false;
+  }
   return true;
 }
 }

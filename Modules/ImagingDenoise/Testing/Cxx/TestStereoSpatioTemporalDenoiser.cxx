@@ -12,6 +12,7 @@
 // 4. re-executing after a parameter change does not count the frame twice;
 // 5. a frame reports its progress: ProgressEvent at 0 (the executive), after each of the first
 //    four stages (the denoiser) and at 1 (the executive), in order.
+#include "DenoiserTestImages.h"
 #include "PathTracingTestScene.h"
 #include "vtkStereoSpatioTemporalDenoiser.h"
 
@@ -29,17 +30,8 @@ namespace
 {
 constexpr int Size = 96;
 
-std::vector<float> Display(vtkImageData* image)
-{
-  auto* radiance = vtkFloatArray::SafeDownCast(image->GetPointData()->GetArray("Radiance"));
-  return hv::denoise::displayImage(radiance->GetPointer(0), radiance->GetNumberOfTuples());
-}
-
-double FieldValue(vtkImageData* image, const char* name)
-{
-  vtkDataArray* array = image->GetFieldData()->GetArray(name);
-  return array ? array->GetComponent(0, 0) : -1.0;
-}
+using denoisertest::Display;
+using denoisertest::FieldValue;
 
 // The stereo reference: 64 spp x 8 progressive frames.
 void RenderReference(vtkVolume* moved, std::vector<float> reference[2])

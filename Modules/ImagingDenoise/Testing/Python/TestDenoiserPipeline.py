@@ -133,6 +133,12 @@ class DenoiserPipelineTest(unittest.TestCase):
         self.assertEqual(denoiser.GetRelightingRefinementFrames(), 4)
         self.assertEqual(denoiser.GetMaximumHistoryAngle(), 6.0)
         self.assertFalse(denoiser.GetBicubicHistory())
+        # A new transfer function drops the history unless asked to relight it (the issue's
+        # behaviour by default).
+        self.assertFalse(denoiser.GetRelightHistoryOnTransferFunctionChange())
+        denoiser.RelightHistoryOnTransferFunctionChangeOn()
+        self.assertTrue(denoiser.GetRelightHistoryOnTransferFunctionChange())
+        denoiser.RelightHistoryOnTransferFunctionChangeOff()
         self.assertEqual(denoiser.GetCoverageAgreementWidth(), 2.0)
         denoiser.SetCoverageAgreementWidth(-1.0)  # clamped: 0 filters coverage like colour
         self.assertEqual(denoiser.GetCoverageAgreementWidth(), 0.0)

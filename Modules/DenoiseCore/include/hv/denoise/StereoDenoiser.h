@@ -175,6 +175,7 @@ struct DenoiserStatistics
   double disoccludedFraction[2] = { 0, 0 }; // of those, pixels without a usable history
   double meanHistoryLength[2] = { 0, 0 };   // frames, over pixels that see the volume
   float temporalGate = 0.0f;                // delta(1 / (T - 1)) of the frame
+  bool newClassification = false;           // relit for a new transfer function
 };
 
 // The two-step stereo spatio-temporal denoiser of the paper's Section 3.2 over VTK-free
@@ -209,6 +210,18 @@ public:
 
   // Forgets both eyes' history: the next frame is filtered spatially only.
   void reset();
+
+  // The next frame shows the same data through a new transfer function: its colours and
+  // opacities changed the radiance everywhere, but most surfaces stayed where they were.
+  // Instead of forgetting the history (reset()), that frame treats the change as a complete
+  // change of light (T = 1): each pixel keeps its history only where its surface passes the
+  // disocclusion tests, relit by the local ratio of the new frame's demodulated radiance to
+  // it (relightingRadius; restarted where the two differ at the scale of a pixel), and the
+  // frame's temporal zeta leaves out the albedo, which the new colours changed while the
+  // history, demodulated by its own albedo, still holds the incident light. Applies to the
+  // next new frame and to a replaceLastFrame call that repeats it; reset() cancels it. Without
+  // relighting (relightingRadius 0, or the exponential average) it is a reset.
+  void relightHistoryForNewClassification();
 
   // Denoises one frame of `eyeCount` eyes (1: mono, no stereo samples or D2; 2: left, right)
   // with the illumination difference T of this frame. Writes RGBA per pixel into
