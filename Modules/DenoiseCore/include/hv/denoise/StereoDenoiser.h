@@ -220,7 +220,10 @@ public:
   // frame's temporal zeta leaves out the albedo, which the new colours changed while the
   // history, demodulated by its own albedo, still holds the incident light. Applies to the
   // next new frame and to a replaceLastFrame call that repeats it; reset() cancels it. Without
-  // relighting (relightingRadius 0, or the exponential average) it is a reset.
+  // relighting (relightingRadius 0, or the exponential average) it is a reset. Where the new
+  // transfer function shows other material at nearly the same depth, the disocclusion tests
+  // pass and the relit history keeps the old material's detail until it fades; reset() is the
+  // better choice for such a switch.
   void relightHistoryForNewClassification();
 
   // Denoises one frame of `eyeCount` eyes (1: mono, no stereo samples or D2; 2: left, right)
