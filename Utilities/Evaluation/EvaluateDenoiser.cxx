@@ -89,7 +89,7 @@ under the lamp, or with the new transfer function, all along.
                          independent random numbers, 1 to 1000 [4]: one 2-spp frame's PSNR
                          varies by a few tenths of a dB, as much as the recovery criterion's
                          margin; their figures are means over runs
-  --edit-frames N         the new transfer function comes in N steps, one a frame, as a user
+  --edit-frames N        the new transfer function comes in N steps, one a frame, as a user
                          dragging an opacity control would make them, 1 to 1000 [1]; the
                          control compares from the last step on
   --edit-to NAME         the transfer function the edit ends with: threshold (the head MRI
