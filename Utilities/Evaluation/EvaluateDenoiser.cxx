@@ -1078,6 +1078,8 @@ int main(int argc, char* argv[])
     vtkSmartPointer<vtkImageData> lampOn =
       sequence == "switch" ? WithLamp(baseEnvironment) : nullptr;
     Reference switchReference[2]; // [lamp]
+    // The references of the edit's steps before its last, by frame: the same in every run.
+    std::map<int, Reference> editStepReferences;
     std::vector<std::vector<float>> thumbnails;
     // Left eye at the thumbnail frame: coverage filtered like the colour, the full denoiser,
     // the reference, for the close-up of the silhouette.
@@ -1252,7 +1254,18 @@ int main(int argc, char* argv[])
         {
           current = &staticReference;
         }
-        else if (stepChange && !(editing && editing != editedProperty))
+        else if (editing && editing != editedProperty)
+        {
+          Reference& step = editStepReferences[frame];
+          if (step.eye[0].empty())
+          {
+            referenceVolume->SetProperty(editing);
+            renderReference(environment, views, projections, options.ReferenceSamples, step);
+            referenceVolume->SetProperty(property);
+          }
+          current = &step;
+        }
+        else if (stepChange)
         {
           const int lamp = frame >= switchFrame ? 1 : 0; // or the new transfer function
           if (switchReference[lamp].eye[0].empty())
@@ -1266,11 +1279,8 @@ int main(int argc, char* argv[])
         }
         else
         {
-          // A moving view or light, or a step of the edit.
-          referenceVolume->SetProperty(editing ? editing.Get() : property.Get());
           renderReference(
             environment, views, projections, options.ReferenceSamples, frameReference);
-          referenceVolume->SetProperty(property);
           current = &frameReference;
         }
 
