@@ -28,6 +28,22 @@ inline int IntegerOption(
   }
   return static_cast<int>(parsed);
 }
+
+// The same for a real number in [minimum, maximum] (a NaN, an infinity or trailing text is
+// refused).
+inline double NumberOption(
+  const char* program, const char* option, const std::string& text, double minimum, double maximum)
+{
+  char* end = nullptr;
+  const double parsed = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !(parsed >= minimum && parsed <= maximum))
+  {
+    std::cerr << program << ": " << option << " wants a number from " << minimum << " to "
+              << maximum << ", not '" << text << "'\n";
+    std::exit(2);
+  }
+  return parsed;
+}
 }
 
 #endif

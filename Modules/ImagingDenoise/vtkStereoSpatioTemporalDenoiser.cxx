@@ -308,6 +308,14 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
     {
       return 0;
     }
+    if (image->GetPointData()->GetArray("FirstScatterScalar"))
+    {
+      f.firstScatterScalar = EyeArray(this, image, names[e], "FirstScatterScalar", 1);
+      if (!f.firstScatterScalar)
+      {
+        return 0;
+      }
+    }
     auto* valid = vtkUnsignedCharArray::SafeDownCast(
       image->GetPointData()->GetArray("FirstScatterValid"));
     if (!valid || valid->GetNumberOfTuples() != image->GetNumberOfPoints())
@@ -414,6 +422,7 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.relightingRadius = static_cast<float>(this->RelightingRadius);
   p.relitHistoryReuse = static_cast<float>(this->RelitHistoryReuse);
   p.relitHistoryRejection = static_cast<float>(this->RelitHistoryRejection);
+  p.classificationScalarTolerance = static_cast<float>(this->ClassificationScalarTolerance);
   p.relightingRefinementFrames = this->RelightingRefinementFrames;
   p.bicubicHistory = this->BicubicHistory;
   p.maximumHistoryAngle = static_cast<float>(this->MaximumHistoryAngle);
@@ -485,6 +494,7 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
     SetFieldValue(fields, "IlluminationDifference", illuminationDifference);
     SetFieldValue(fields, "TemporalWeight", statistics.temporalGate);
     SetFieldValue(fields, "DisoccludedFraction", statistics.disoccludedFraction[e]);
+    SetFieldValue(fields, "MaterialChangedFraction", statistics.materialChangedFraction[e]);
     SetFieldValue(fields, "MeanHistoryLength", statistics.meanHistoryLength[e]);
     output->SetFieldData(fields);
   }
@@ -513,6 +523,7 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "RelightingRadius: " << this->RelightingRadius << "\n";
   os << indent << "RelitHistoryReuse: " << this->RelitHistoryReuse << "\n";
   os << indent << "RelitHistoryRejection: " << this->RelitHistoryRejection << "\n";
+  os << indent << "ClassificationScalarTolerance: " << this->ClassificationScalarTolerance << "\n";
   os << indent << "RelightingRefinementFrames: " << this->RelightingRefinementFrames << "\n";
   os << indent << "BicubicHistory: " << (this->BicubicHistory ? "On" : "Off") << "\n";
   os << indent << "MaximumHistoryAngle: " << this->MaximumHistoryAngle << "\n";

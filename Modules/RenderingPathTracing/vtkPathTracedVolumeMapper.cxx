@@ -153,6 +153,15 @@ public:
   vtkMTimeType SceneKey = 0;
   int ClassificationStamp = 0;
   int DataStamp = 0;                        // changes with the scalars alone
+  // What the last classification produced. The property's MTime also moves when nothing in it
+  // changed (vtkVolume::SetProperty calls UpdateMTimes() on it, so putting a property on a
+  // second volume touches it), and a new ClassificationStamp makes a denoiser drop its history:
+  // the stamp changes only when the tables (or the data) do.
+  std::vector<float> ClassifiedOpacity, ClassifiedAlbedo, ClassifiedGradientTable;
+  float ClassifiedUnitDistance = -1.0f;
+  float ClassifiedDensityScale = -1.0f;
+  float ClassifiedMaximumGradient = -1.0f;
+  int ClassifiedDataStamp = -1;
   glm::mat4 VolumeMatrix = glm::mat4(1.0f); // the prop's matrix: world from volume
   std::array<EyeState, 2> Eyes;
   // The right eye's matrices of the last denoised stereo window frame, whose second pass
@@ -463,10 +472,9 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
     {
       a = std::min(std::max(a, 0.0f), 1.0f); // an albedo above one would create energy
     }
-    internals->Grid.setCellSize(self->GetMacrocellSize());
-    internals->Grid.setTransferFunction(opacity, albedo,
-      static_cast<float>(std::max(property->GetScalarOpacityUnitDistance(0), 1e-12)),
-      static_cast<float>(self->GetDensityScale()));
+    const float unitDistance =
+      static_cast<float>(std::max(property->GetScalarOpacityUnitDistance(0), 1e-12));
+    const float densityScale = static_cast<float>(self->GetDensityScale());
     std::vector<float> gradientTable;
     const float scalarSpan = static_cast<float>(range[1] - range[0]);
     const float maximumRawGradient = internals->Grid.maximumGradientMagnitude() * scalarSpan;
@@ -476,20 +484,41 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
       property->GetGradientOpacity(0)->GetTable(
         0.0, std::max(maximumRawGradient, 1e-12f), GradientOpacityTableSize, gradientTable.data());
     }
-    internals->Grid.setGradientOpacity(gradientTable, maximumRawGradient, scalarSpan);
+    const bool sameClassification = internals->ClassifiedDataStamp == internals->DataStamp &&
+      opacity == internals->ClassifiedOpacity && albedo == internals->ClassifiedAlbedo &&
+      gradientTable == internals->ClassifiedGradientTable &&
+      unitDistance == internals->ClassifiedUnitDistance &&
+      densityScale == internals->ClassifiedDensityScale &&
+      maximumRawGradient == internals->ClassifiedMaximumGradient;
+    if (!sameClassification || internals->TransferCellSize != self->GetMacrocellSize())
+    {
+      internals->Grid.setCellSize(self->GetMacrocellSize());
+      internals->Grid.setTransferFunction(opacity, albedo, unitDistance, densityScale);
+      internals->Grid.setGradientOpacity(gradientTable, maximumRawGradient, scalarSpan);
+      internals->Transparent = internals->Grid.isTransparent();
+      if (internals->Transparent)
+      {
+        vtkWarningWithObjectMacro(self,
+          "The scalar opacity transfer function (times DensityScale "
+            << self->GetDensityScale() << ") is zero over the data range [" << range[0] << ", "
+            << range[1] << "]: the volume is invisible. Add opacity points inside the data range.");
+      }
+    }
+    if (!sameClassification)
+    {
+      ++internals->ClassificationStamp;
+      internals->ClassifiedOpacity = std::move(opacity);
+      internals->ClassifiedAlbedo = std::move(albedo);
+      internals->ClassifiedGradientTable = std::move(gradientTable);
+      internals->ClassifiedUnitDistance = unitDistance;
+      internals->ClassifiedDensityScale = densityScale;
+      internals->ClassifiedMaximumGradient = maximumRawGradient;
+      internals->ClassifiedDataStamp = internals->DataStamp;
+    }
     internals->TransferTime = property->GetMTime();
     internals->TransferDensityScale = self->GetDensityScale();
     internals->TransferCellSize = self->GetMacrocellSize();
     internals->TransferGradientOpacity = gradientOpacity;
-    ++internals->ClassificationStamp;
-    internals->Transparent = internals->Grid.isTransparent();
-    if (internals->Transparent)
-    {
-      vtkWarningWithObjectMacro(self,
-        "The scalar opacity transfer function (times DensityScale "
-          << self->GetDensityScale() << ") is zero over the data range [" << range[0] << ", "
-          << range[1] << "]: the volume is invisible. Add opacity points inside the data range.");
-    }
   }
 
   // 4. Cropping (VTK's 27 regions; region planes in data coordinates).
@@ -772,6 +801,7 @@ struct EyeBuffers
   float* albedo;
   float* normal;
   float* gradient;
+  float* scalar;
   unsigned char* valid;
 };
 
@@ -812,6 +842,7 @@ HV_RENDER_CLONES void RenderRows(const hv::SceneView& scene, const hv::EyeView& 
       out.valid[pixel] = static_cast<unsigned char>(r.hit);
       out.depth[pixel] = r.hit ? r.depth : 0.0f;
       out.gradient[pixel] = r.gradientMagnitude;
+      out.scalar[pixel] = r.scalar;
       for (int c = 0; c < 3; ++c)
       {
         out.position[3 * pixel + c] = r.firstScatterPosition[c];
@@ -869,6 +900,7 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
     buffers.albedo = OutputArray(output, "Albedo", 3, pixelCount)->GetPointer(0);
     buffers.normal = OutputArray(output, "Normal", 3, pixelCount)->GetPointer(0);
     buffers.gradient = OutputArray(output, "GradientMagnitude", 1, pixelCount)->GetPointer(0);
+    buffers.scalar = OutputArray(output, "FirstScatterScalar", 1, pixelCount)->GetPointer(0);
     vtkUnsignedCharArray* validArray =
       vtkUnsignedCharArray::SafeDownCast(output->GetPointData()->GetArray("FirstScatterValid"));
     if (!validArray)

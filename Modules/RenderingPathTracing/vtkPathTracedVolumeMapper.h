@@ -340,7 +340,9 @@ public:
    * "FirstScatterValid" (unsigned char, 0 where the primary path never scattered),
    * "Depth" (float, eye-space distance along the view axis), "Albedo" (float RGB),
    * "Normal" (float xyz, unit gradient direction facing the eye), "GradientMagnitude"
-   * (float, normalised to [0, 1]). Field data: "ViewMatrix", "ProjectionMatrix" (16 doubles,
+   * (float, normalised to [0, 1]), "FirstScatterScalar" (float, the data's scalar at the first
+   * scatter point, normalised to [0, 1] over its range: the material, whatever the transfer
+   * function makes of it). Field data: "ViewMatrix", "ProjectionMatrix" (16 doubles,
    * row-major as vtkMatrix4x4), "FrameIndex", "AccumulatedFrames", "Eye", and
    * "ClassificationStamp", which changes when the data or the transfer function does (a
    * denoiser drops its history then), "DataStamp", which changes with the data alone (a

@@ -5,8 +5,12 @@
 // at HoloLens 2 resolution, side by side with the path tracer's own 2-spp stereo frame in the
 // same run, on the real head MRI under a real HDR panorama. Each timed frame is a new render
 // (the camera orbits 0.5 degrees a frame), so the denoiser does all its work every frame.
+#include "vtkDataArray.h"
 #include "vtkEnvironmentMapReader.h"
+#include "vtkFieldData.h"
 #include "vtkHoloVolumeScene.h"
+#include "vtkImageData.h"
+#include "vtkIntArray.h"
 #include "vtkPathTracedVolumeMapper.h"
 #include "vtkSMPTools.h"
 #include "vtkStereoSpatioTemporalDenoiser.h"
@@ -31,6 +35,13 @@ double Median(std::vector<double> values)
   return values.empty() ? 0.0 : values[values.size() / 2];
 }
 
+// A number from an image's field data (0 when the array is missing).
+double FieldNumber(vtkImageData* image, const char* name)
+{
+  vtkDataArray* array = image->GetFieldData()->GetArray(name);
+  return array ? array->GetComponent(0, 0) : 0.0;
+}
+
 double Minimum(const std::vector<double>& values)
 {
   return values.empty() ? 0.0 : *std::min_element(values.begin(), values.end());
@@ -42,8 +53,9 @@ void Usage()
 
 Times vtkStereoSpatioTemporalDenoiser on stereo frames of the path tracer, next to the path
 tracer's own frame time, in one run: each stage of the full denoiser, variants without D2 or
-without the history, and the first frame apart (where each denoiser sizes and zeroes its
-planes, and the mapper builds its grids).
+without the history, relit every frame for a change of light or for a new transfer function
+(with the first scatter scalar test and without), and the first frame apart (where each
+denoiser sizes and zeroes its planes, and the mapper builds its grids).
 
   --volume FILE        volume (.nii, .nii.gz, .vti)
                        [/usr/share/mricron/templates/ch2.nii.gz, package mricron-data]
@@ -154,7 +166,7 @@ int main(int argc, char* argv[])
     std::vector<double> Milliseconds;
     std::vector<double> StageMilliseconds[vtkStereoSpatioTemporalDenoiser::NumberOfStages];
   };
-  Variant variants[5];
+  Variant variants[7];
   variants[0].Name = "full (D1 + D2)";
   variants[1].Name = "D1 (no D2)";
   variants[2].Name = "spatial only";
@@ -165,6 +177,14 @@ int main(int argc, char* argv[])
   // skipping of the last level for long histories saves.
   variants[4].Name = "full, every level for every pixel";
   variants[4].Denoiser->SetWaveletLongHistory(0.0);
+  // A new transfer function every frame (the images' ClassificationStamp changes, their
+  // DataStamp does not), the history relit for it, with the first scatter scalar test and
+  // without: an editor's drag of a window or opacity control.
+  variants[5].Name = "full, new transfer function every frame, relit";
+  variants[5].Denoiser->RelightHistoryOnTransferFunctionChangeOn();
+  variants[6].Name = "the same without the first scatter scalar test";
+  variants[6].Denoiser->RelightHistoryOnTransferFunctionChangeOn();
+  variants[6].Denoiser->SetClassificationScalarTolerance(0.0);
   variants[1].Denoiser->StereoBlendOff();
   variants[2].Denoiser->CrossViewSamplesOff();
   variants[2].Denoiser->TemporalAccumulationOff();
@@ -199,10 +219,25 @@ int main(int argc, char* argv[])
       height);
     const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    // The eye images with a ClassificationStamp of their own for every frame.
+    vtkNew<vtkImageData> restamped[2];
+    for (int eye = 0; eye < 2; ++eye)
+    {
+      restamped[eye]->ShallowCopy(mapper->GetEyeOutput(eye));
+      vtkNew<vtkFieldData> fields;
+      fields->DeepCopy(mapper->GetEyeOutput(eye)->GetFieldData());
+      vtkNew<vtkIntArray> stamp;
+      stamp->SetName("ClassificationStamp");
+      stamp->InsertNextValue(1000000 + frame);
+      fields->RemoveArray("ClassificationStamp");
+      fields->AddArray(stamp);
+      restamped[eye]->SetFieldData(fields);
+    }
     for (Variant& v : variants)
     {
-      v.Denoiser->SetInputData(0, mapper->GetEyeOutput(0));
-      v.Denoiser->SetInputData(1, mapper->GetEyeOutput(1));
+      const bool newTransferFunction = &v == &variants[5] || &v == &variants[6];
+      v.Denoiser->SetInputData(0, newTransferFunction ? restamped[0] : mapper->GetEyeOutput(0));
+      v.Denoiser->SetInputData(1, newTransferFunction ? restamped[1] : mapper->GetEyeOutput(1));
       v.Denoiser->Update();
       if (frame == 0 && &v == &variants[0])
       {
@@ -282,6 +317,19 @@ int main(int argc, char* argv[])
               "(median of the frames' differences).\n",
     Median(variants[4].StageMilliseconds[vtkStereoSpatioTemporalDenoiser::WaveletStage]),
     Median(everyLevelMore), variants[0].Denoiser->GetWaveletLongHistory());
+  std::vector<double> scalarTestMore;
+  for (std::size_t f = 0; f < variants[5].Milliseconds.size(); ++f)
+  {
+    scalarTestMore.push_back(variants[5].Milliseconds[f] - variants[6].Milliseconds[f]);
+  }
+  std::printf("\nA new transfer function every frame, the history relit: median %.1f ms; the first "
+              "scatter scalar test adds %.1f ms (median of the frames' differences); it dropped "
+              "%.1f%% of the histories on the last frame (the same transfer function, so only "
+              "noise).\n",
+    Median(variants[5].Milliseconds), Median(scalarTestMore),
+    50.0 *
+      (FieldNumber(variants[5].Denoiser->GetEyeOutput(0), "MaterialChangedFraction") +
+        FieldNumber(variants[5].Denoiser->GetEyeOutput(1), "MaterialChangedFraction")));
   std::printf("\nThe full denoiser costs %.1f%% of the frame it denoises.\n",
     100.0 * Median(variants[0].Milliseconds) / Median(renderMs));
   return 0;

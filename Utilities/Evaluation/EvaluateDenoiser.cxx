@@ -57,11 +57,13 @@ struct Options
   int ReferenceSamples = 1024;
   std::string Sequences = "static,orbit,rotate,switch,edit";
   std::string Images;
+  int ThumbnailFrame = -1; // the default frame of each sequence
   int SwitchRuns = 4;
   int WaveletLevels = -1;             // the denoiser's default
   int WaveletLongHistory = -1;        // the denoiser's default
   int StratifiedSubpixelSamples = -1; // the mapper's default
   bool RelightOnTransferFunctionChange = false;
+  double ClassificationScalarTolerance = -1.0; // the denoiser's default
   int EditFrames = 1;
   std::string EditTarget = "threshold";
 };
@@ -85,6 +87,9 @@ under the lamp, or with the new transfer function, all along.
                          the static view's reference and the raw-spp curve use 4x this
   --sequences LIST       any of static,orbit,rotate,switch,edit [all]
   --images DIR           write thumbnail strips (left eye) as PNG into DIR
+  --thumbnail-frame N    the frame the strips show, from 0 (past the end: the last) [the
+                         static view's frame 15, the frame after a change, the moving
+                         sequences' last frame]
   --switch-runs N        repeat the light switch and the new transfer function N times with
                          independent random numbers, 1 to 1000 [4]: one 2-spp frame's PSNR
                          varies by a few tenths of a dB, as much as the recovery criterion's
@@ -100,6 +105,10 @@ under the lamp, or with the new transfer function, all along.
                          every denoiser relights its history for the new transfer function
                          instead of dropping it (vtkStereoSpatioTemporalDenoiser::
                          SetRelightHistoryOnTransferFunctionChange; off by default)
+  --classification-scalar-tolerance X
+                         with the option above, a pixel keeps its history only where the
+                         data's scalar at the first scatter points (a 3x3 mean) moved by at
+                         most X of its range, 0 to 1; 0: no test [the denoiser's default, 0.1]
   --wavelet-levels N     a-trous levels of every denoiser's spatial filter, 0 to 10 [the
                          denoiser's default, 4]: its quality against its cost, which
                          holovolume-denoise-benchmark --wavelet-levels N measures
@@ -779,6 +788,9 @@ int main(int argc, char* argv[])
       options.Sequences = value();
     else if (arg == "--images")
       options.Images = value();
+    else if (arg == "--thumbnail-frame")
+      options.ThumbnailFrame =
+        holovolume::IntegerOption(program, "--thumbnail-frame", value(), 0, 100000);
     else if (arg == "--switch-runs")
       options.SwitchRuns = holovolume::IntegerOption(program, "--switch-runs", value(), 1, 1000);
     else if (arg == "--edit-frames")
@@ -796,6 +808,9 @@ int main(int argc, char* argv[])
     }
     else if (arg == "--relight-on-transfer-function-change")
       options.RelightOnTransferFunctionChange = true;
+    else if (arg == "--classification-scalar-tolerance")
+      options.ClassificationScalarTolerance =
+        holovolume::NumberOption(program, "--classification-scalar-tolerance", value(), 0.0, 1.0);
     else if (arg == "--wavelet-levels")
     {
       vtkNew<vtkStereoSpatioTemporalDenoiser> limits;
@@ -962,6 +977,16 @@ int main(int argc, char* argv[])
       options.EditTarget.c_str(), options.EditFrames, options.EditFrames > 1 ? "s" : "",
       options.RelightOnTransferFunctionChange ? "relit (--relight-on-transfer-function-change)"
                                               : "dropped (the default)");
+    if (options.RelightOnTransferFunctionChange)
+    {
+      vtkNew<vtkStereoSpatioTemporalDenoiser> defaults;
+      const double tolerance = options.ClassificationScalarTolerance >= 0.0
+        ? options.ClassificationScalarTolerance
+        : defaults->GetClassificationScalarTolerance();
+      std::printf("first scatter scalar test: a pixel keeps its history where the scalar moved "
+                  "by at most %.3g of the data's range%s\n",
+        tolerance, tolerance > 0.0 ? "" : " (0: no test)");
+    }
   }
   if (options.WaveletLevels >= 0)
   {
@@ -1074,6 +1099,9 @@ int main(int argc, char* argv[])
     // The silhouette band's pixels over those that show the volume or lie in it, both eyes.
     std::size_t silhouettePixels = 0, regionPixels = 0;
     std::vector<double> illuminationDifferences;
+    // The full denoiser's "MaterialChangedFraction" on the edit's frames (both eyes, every run).
+    double materialChangedSum = 0.0;
+    int materialChangedCount = 0;
     const int switchFrame = options.Frames / 2;
     vtkSmartPointer<vtkImageData> lampOn =
       sequence == "switch" ? WithLamp(baseEnvironment) : nullptr;
@@ -1084,9 +1112,11 @@ int main(int argc, char* argv[])
     // Left eye at the thumbnail frame: coverage filtered like the colour, the full denoiser,
     // the reference, for the close-up of the silhouette.
     std::vector<float> silhouette[3];
-    const int thumbnailFrame = sequence == "static" ? std::min(15, options.Frames - 1)
-      : stepChange                                  ? switchFrame + 1
-                                                    : options.Frames - 1;
+    const int thumbnailFrame = options.ThumbnailFrame >= 0
+      ? std::min(options.ThumbnailFrame, options.Frames - 1)
+      : sequence == "static" ? std::min(15, options.Frames - 1)
+      : stepChange           ? switchFrame + 1
+                             : options.Frames - 1;
     const int runs = stepChange ? options.SwitchRuns : 1;
     // Over the runs, each pixel's mean error is its bias and its spread the noise: the left
     // eye's display values of D1 and both D2s at a few frames around the switch.
@@ -1153,6 +1183,10 @@ int main(int argc, char* argv[])
         {
           run[method]->SetRelightHistoryOnTransferFunctionChange(
             options.RelightOnTransferFunctionChange);
+          if (options.ClassificationScalarTolerance >= 0.0)
+          {
+            run[method]->SetClassificationScalarTolerance(options.ClassificationScalarTolerance);
+          }
           if (options.WaveletLevels >= 0)
           {
             run[method]->SetWaveletLevels(options.WaveletLevels);
@@ -1303,6 +1337,16 @@ int main(int argc, char* argv[])
               denoiser->Update();
               eyes[0] = denoiser->GetEyeOutput(0);
               eyes[1] = denoiser->GetEyeOutput(1);
+              if (m == FullMethod && edit && frame >= switchFrame &&
+                frame < switchFrame + options.EditFrames)
+              {
+                for (vtkImageData* eye : eyes)
+                {
+                  materialChangedSum +=
+                    eye->GetFieldData()->GetArray("MaterialChangedFraction")->GetComponent(0, 0);
+                  ++materialChangedCount;
+                }
+              }
             }
             std::vector<float>* out = run == 0 ? display : twinDisplay;
             out[0] = Display(eyes[0]);
@@ -1480,6 +1524,13 @@ int main(int argc, char* argv[])
     if (sequence == "switch")
     {
       std::printf(" (at the switch, frame %d: %.3f)", switchFrame, illuminationDifferences[switchFrame]);
+    }
+    if (edit && options.RelightOnTransferFunctionChange && materialChangedCount > 0)
+    {
+      std::printf("\nthe full denoiser's first scatter scalar test dropped the history of %.1f %% "
+                  "of the pixels that see the volume on the edit's frames (mean over the eyes, "
+                  "runs and steps)",
+        100.0 * materialChangedSum / materialChangedCount);
     }
     std::printf("\n\n| method | PSNR dB | SSIM | equal-quality spp | flicker (x1000) | "
                 "inter-eye noise discrepancy (x1000) | the same at centred correspondences "

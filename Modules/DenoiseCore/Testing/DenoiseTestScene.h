@@ -26,6 +26,7 @@ struct EyeBuffers
   int width = 0;
   int height = 0;
   std::vector<float> radiance, reference, position, depth, albedo, normal, gradient;
+  std::vector<float> scalar; // empty unless SceneState::withScalars
   std::vector<unsigned char> valid;
   glm::mat4 view{ 1.0f }, projection{ 1.0f };
 
@@ -41,6 +42,7 @@ struct EyeBuffers
     f.albedo = this->albedo.data();
     f.normal = this->normal.data();
     f.gradientMagnitude = this->gradient.data();
+    f.firstScatterScalar = this->scalar.empty() ? nullptr : this->scalar.data();
     f.view = this->view;
     f.projection = this->projection;
     return f;
@@ -80,6 +82,20 @@ struct SceneState
   // At a volume's edge each eye sees the edge from its own side, and the same point is covered
   // to a different degree in each eye's pixel.
   float leftEyeCoverage = 1.0f;
+  // The data's normalised scalar at the first scatter point (EyeFrame::firstScatterScalar),
+  // when withScalars: the square's squareScalar, the wall's wallScalar, and on the wall's left
+  // part (x < patchEdge) patchScalar; each frame's value jittered uniformly by +-scalarJitter,
+  // as one sample's first scatter point moves through the material. A transfer function that
+  // shows other tissue at the same place changes patchScalar, and that tissue's own shading
+  // detail, patchDetail: its irradiance times 1 + patchDetail sin(2 pi x / 0.15), stripes
+  // about 2.7 pixels apart at 160x104, finer than the relighting ratio's 4 pixels.
+  bool withScalars = false;
+  float squareScalar = 0.8f;
+  float wallScalar = 0.4f;
+  float patchScalar = 0.4f;
+  float patchEdge = -1.0f;
+  float patchDetail = 0.0f;
+  float scalarJitter = 0.04f;
   glm::vec3 cameraPosition{ 0.0f, 0.0f, 8.0f }; // between the eyes, looking at -z
   float interpupillaryDistance = 0.3f;
   float focalDistance = 8.0f;
@@ -114,6 +130,7 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
   out.normal.assign(3 * n, 0.0f);
   out.gradient.assign(n, 0.0f);
   out.valid.assign(n, 0);
+  out.scalar.assign(scene.withScalars ? n : 0, 0.0f);
   eyeMatrices(scene, eye, static_cast<float>(width) / height, out.view, out.projection);
   const glm::mat4 inverse = glm::inverse(out.projection * out.view);
   std::mt19937 rng(seed * 2654435761u + static_cast<std::uint32_t>(eye) * 97u + 1u);
@@ -132,6 +149,7 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
       const float noise = 0.5f * (exponential(rng) + exponential(rng));
       // Square first (it is in front), then the wall at z = 0.
       glm::vec3 hit, albedo, radiance;
+      float scalar = 0.0f;
       bool found = false;
       {
         const float t = (scene.squareCentre.z - origin.z) / direction.z;
@@ -142,6 +160,7 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
           hit = p;
           albedo = glm::vec3(0.15f, 0.55f, 0.9f);
           radiance = albedo * 1.2f;
+          scalar = scene.squareScalar;
           found = true;
         }
       }
@@ -160,6 +179,13 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
             std::abs(p.y - scene.squareCentre.y - scene.shadowShift.y) < 0.8f)
           {
             irradiance *= scene.shadowLevel;
+          }
+          scalar = scene.wallScalar;
+          if (p.x < scene.patchEdge)
+          {
+            scalar = scene.patchScalar;
+            irradiance *=
+              1.0f + scene.patchDetail * std::sin(2.0f * glm::pi<float>() * p.x / 0.15f);
           }
           radiance = albedo * irradiance;
           found = true;
@@ -184,6 +210,15 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
         gradient = scene.wallGradient;
       }
       out.valid[i] = 1;
+      if (scene.withScalars)
+      {
+        // Drawn from its own generator, so that the radiance's noise is the same with and
+        // without scalars.
+        std::mt19937 scalarRng(static_cast<std::uint32_t>(i) * 2246822519u + seed * 3266489917u +
+          static_cast<std::uint32_t>(eye));
+        std::uniform_real_distribution<float> jitter(-scene.scalarJitter, scene.scalarJitter);
+        out.scalar[i] = scalar + jitter(scalarRng);
+      }
       float coverage = 1.0f, alpha = 1.0f;
       if (eye == 0 && scene.leftEyeCoverage < 1.0f)
       {

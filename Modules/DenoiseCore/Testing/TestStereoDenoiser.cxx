@@ -579,6 +579,183 @@ TEST(StereoDenoiser, NewTransferFunctionDropsAHistoryThatCannotBeRelit)
   }
 }
 
+// A transfer function that shows other tissue at the same place: on the wall's left part the
+// first scatter scalar moves from 0.4 to 0.75, and that tissue has shading detail of its own
+// (stripes finer than the relighting ratio's Gaussian). Depth and normal stay, so the
+// disocclusion tests pass; only the scalar can tell. With the scalar test those pixels start
+// over while the rest of the wall keeps its history; without it (tolerance 0, or frames
+// without scalars) the patch keeps the old tissue's relit history, which has no stripes.
+TEST(StereoDenoiser, NewTransferFunctionDropsTheHistoryWhereTheMaterialChanged)
+{
+  struct Outcome
+  {
+    double patchHistory = 0.0, wallHistory = 0.0, patchFraction = 0.0, patchError = 0.0;
+    double changedFraction[2] = { 0.0, 0.0 };
+  };
+  // Scalars in no frame, in every frame, or from the change on (the frame before it has none
+  // to compare with).
+  enum class Scalars
+  {
+    None,
+    Always,
+    FromTheChange
+  };
+  auto run = [](float tolerance, Scalars scalars)
+  {
+    hvtest::SceneState scene;
+    scene.withScalars = scalars == Scalars::Always;
+    StereoDenoiser denoiser;
+    denoiser.parameters().classificationScalarTolerance = tolerance;
+    StereoFrame frame;
+    frame.settle(scene, denoiser, 0, 16, 0.0f);
+    EXPECT_EQ(denoiser.statistics().materialChangedFraction[0], 0.0); // no new classification
+    scene.withScalars = scalars != Scalars::None;
+    scene.patchScalar = 0.75f;
+    scene.patchDetail = 0.5f;
+    denoiser.relightHistoryForNewClassification();
+    frame.render(scene, 16);
+    frame.denoise(denoiser);
+    Outcome outcome;
+    outcome.changedFraction[0] = denoiser.statistics().materialChangedFraction[0];
+    outcome.changedFraction[1] = denoiser.statistics().materialChangedFraction[1];
+    {
+      // Denoised again (a parameter changed): the same test against the same history.
+      const EyeFrame frames[2] = { frame.eyes[0].frame(), frame.eyes[1].frame() };
+      std::vector<float> again[2] = { frame.outputs[0], frame.outputs[1] };
+      float* out[2] = { again[0].data(), again[1].data() };
+      std::string error;
+      EXPECT_TRUE(denoiser.denoise(frames, 2, 0.0f, out, error, true)) << error;
+      EXPECT_EQ(denoiser.statistics().materialChangedFraction[0], outcome.changedFraction[0]);
+      EXPECT_EQ(again[0], frame.outputs[0]);
+      EXPECT_EQ(again[1], frame.outputs[1]);
+    }
+    const hvtest::EyeBuffers& left = frame.eyes[0];
+    std::size_t seen = 0, patch = 0, wall = 0;
+    for (std::size_t i = 0; i < left.valid.size(); ++i)
+    {
+      if (!left.valid[i])
+      {
+        continue;
+      }
+      ++seen;
+      const bool onWall = left.position[3 * i + 2] == 0.0f;
+      const int x = static_cast<int>(i % Width), y = static_cast<int>(i / Width);
+      if (onWall && left.position[3 * i] < scene.patchEdge)
+      {
+        ++patch;
+        outcome.patchHistory += denoiser.historyLength(0, x, y);
+      }
+      else if (onWall)
+      {
+        ++wall;
+        outcome.wallHistory += denoiser.historyLength(0, x, y);
+      }
+    }
+    EXPECT_GT(patch, 1500u);
+    EXPECT_GT(wall, 3000u);
+    outcome.patchHistory /= static_cast<double>(patch);
+    outcome.wallHistory /= static_cast<double>(wall);
+    outcome.patchFraction = static_cast<double>(patch) / static_cast<double>(seen);
+    // The patch's error 8 frames on: a history that started over has averaged 9 frames of the
+    // new tissue; the relit one still holds most of the old tissue's (no stripes), and takes
+    // in each new frame at 1/17 or less.
+    frame.settle(scene, denoiser, 17, 25, 0.0f);
+    double error = 0.0, reference = 0.0;
+    for (std::size_t i = 0; i < left.valid.size(); ++i)
+    {
+      if (left.valid[i] && left.position[3 * i + 2] == 0.0f &&
+        left.position[3 * i] < scene.patchEdge)
+      {
+        for (int c = 0; c < 3; ++c)
+        {
+          error += std::abs(frame.outputs[0][4 * i + c] - left.reference[4 * i + c]);
+          reference += left.reference[4 * i + c];
+        }
+      }
+    }
+    outcome.patchError = error / reference;
+    return outcome;
+  };
+  const Outcome tested = run(0.1f, Scalars::Always);
+  const Outcome untested = run(0.0f, Scalars::Always);
+  const Outcome withoutScalars = run(0.1f, Scalars::None);
+  const Outcome scalarsFromTheChange = run(0.1f, Scalars::FromTheChange);
+  for (const auto& [name, o] :
+    { std::pair<const char*, Outcome>{ "scalar test", tested }, { "tolerance 0", untested },
+      { "no scalars", withoutScalars }, { "scalars from the change on", scalarsFromTheChange } })
+  {
+    std::cout << name << ": history on the patch " << o.patchHistory << " frames, on the rest of "
+              << "the wall " << o.wallHistory << "; dropped for the material "
+              << o.changedFraction[0] << " / " << o.changedFraction[1] << " (the patch is "
+              << o.patchFraction << " of the left eye's pixels); the patch's relative error "
+              << "8 frames on " << o.patchError << "\n";
+  }
+  // The patch starts over, in both eyes, and nothing else does: the scalar's own jitter
+  // (+-0.04 a frame) stays within the tolerance.
+  EXPECT_LT(tested.patchHistory, 1.01);
+  EXPECT_GT(tested.wallHistory, 12.0);
+  EXPECT_NEAR(tested.changedFraction[0], tested.patchFraction, 0.1 * tested.patchFraction);
+  EXPECT_GT(tested.changedFraction[1], 0.5 * tested.patchFraction);
+  for (const Outcome& o : { untested, withoutScalars, scalarsFromTheChange })
+  {
+    EXPECT_EQ(o.changedFraction[0], 0.0);
+    EXPECT_EQ(o.changedFraction[1], 0.0);
+    EXPECT_GT(o.patchHistory, 12.0);
+  }
+  EXPECT_LT(tested.patchError, 0.8 * untested.patchError);
+}
+
+// A drag: the patch's material moves from 0.4 to 0.75 in 5 frames of 0.07, each a new transfer
+// function and each within the tolerance of the frame before. The frames of one run of changes
+// compare with the scalar the history was gathered on, so the patch starts over once it has
+// moved by more than 0.1 in all (the second step), and the rest of the wall keeps its history.
+TEST(StereoDenoiser, TransferFunctionDraggedInStepsIsMeasuredFromWhereItStarted)
+{
+  hvtest::SceneState scene;
+  scene.withScalars = true;
+  StereoDenoiser denoiser;
+  StereoFrame frame;
+  frame.settle(scene, denoiser, 0, 16, 0.0f);
+  std::vector<double> dropped;
+  for (int step = 1; step <= 5; ++step)
+  {
+    scene.patchScalar = 0.4f + 0.07f * static_cast<float>(step);
+    denoiser.relightHistoryForNewClassification();
+    frame.render(scene, static_cast<std::uint32_t>(15 + step));
+    frame.denoise(denoiser);
+    dropped.push_back(denoiser.statistics().materialChangedFraction[0]);
+  }
+  double patchHistory = 0.0, wallHistory = 0.0;
+  std::size_t patch = 0, wall = 0;
+  const hvtest::EyeBuffers& left = frame.eyes[0];
+  for (std::size_t i = 0; i < left.valid.size(); ++i)
+  {
+    if (!left.valid[i] || left.position[3 * i + 2] != 0.0f)
+    {
+      continue;
+    }
+    const float length =
+      denoiser.historyLength(0, static_cast<int>(i % Width), static_cast<int>(i / Width));
+    const bool onPatch = left.position[3 * i] < scene.patchEdge;
+    (onPatch ? patchHistory : wallHistory) += length;
+    ++(onPatch ? patch : wall);
+  }
+  patchHistory /= static_cast<double>(patch);
+  wallHistory /= static_cast<double>(wall);
+  std::cout << "dropped for the material at steps 1-5:";
+  for (double d : dropped)
+  {
+    std::cout << " " << d;
+  }
+  std::cout << "; history after the drag: patch " << patchHistory << ", rest of the wall "
+            << wallHistory << " frames\n";
+  EXPECT_LT(dropped[0], 0.02); // 0.07 from where it started: kept
+  EXPECT_GT(dropped[1], 0.25); // 0.14: the patch, a third of the pixels, starts over
+  EXPECT_LT(dropped[2], 0.02); // 0.07 from the restart: kept again
+  EXPECT_LT(patchHistory, 4.5);
+  EXPECT_GT(wallHistory, 15.0);
+}
+
 // The light moves and the square's hard shadow jumps from the left of it to the right (T = 0.3).
 // A brightness ratio over 4 pixels cannot move a sharp shadow 28 pixels wide: where the shadow
 // was, the relit history keeps part of it. The fine-scale test rejects the history where it

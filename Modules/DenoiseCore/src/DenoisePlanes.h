@@ -129,14 +129,24 @@ struct SurfacePlanes
   PlaneVector<float> depthJitter, normalJitter;
   PlaneVector<float> coverageSharpness;
   PlaneVector<float> point[3];
+  // The volume's normalised scalar at the first scatter point (EyeFrame::firstScatterScalar),
+  // 0 where the frame had none; hasScalar says whether it did.
+  PlaneVector<float> scalar;
+  bool hasScalar = false;
+  // On the frame of a new transfer function, for each pixel the scalar (a 3x3 mean) of the
+  // material its history was gathered on: carried over from the frames of the same run of
+  // changes, so that a drag that moves the material a little each frame is measured against
+  // where it started. Sized on first use; hasScalarAnchor only on such a frame.
+  PlaneVector<float> scalarAnchor;
+  bool hasScalarAnchor = false;
 
   // The planes of Surface's fields (all but coverageSharpness).
-  std::array<PlaneVector<float>*, 15> fields()
+  std::array<PlaneVector<float>*, 16> fields()
   {
     return { &this->depth, &this->depthSpread, &this->gradientMagnitude, &this->normal[0],
       &this->normal[1], &this->normal[2], &this->albedo[0], &this->albedo[1], &this->albedo[2],
       &this->valid, &this->depthJitter, &this->normalJitter, &this->point[0], &this->point[1],
-      &this->point[2] };
+      &this->point[2], &this->scalar };
   }
   // Pixel `to` gets the surface of pixel `from`.
   void copySurface(std::size_t from, std::size_t to)

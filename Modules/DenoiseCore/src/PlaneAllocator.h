@@ -4,7 +4,7 @@
 // Internal to HoloVolumeDenoiseCore: the allocator of the denoiser's per-pixel planes, which
 // lets EyeState::resize zero them on every thread.
 //
-// A denoiser holds 89 floats a pixel per eye (its history, surfaces and filter planes), 480 MB
+// A denoiser holds 91 floats a pixel per eye (its history, surfaces and filter planes), 490 MB
 // an eye at the headset's 1440x936, and the kernel maps that memory a page at a time as it is
 // first written. std::vector's resize(n, 0) and assign(n, 0) write it on one thread, so the
 // first frame (and the first after a change of size) took all its page faults there: 2.97-3.46 s

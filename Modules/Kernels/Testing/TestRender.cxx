@@ -198,7 +198,7 @@ TEST(Render, Determinism)
       std::memcmp(&a.albedo, &b.albedo, sizeof(a.albedo)) == 0 &&
       std::memcmp(&a.normal, &b.normal, sizeof(a.normal)) == 0 &&
       std::memcmp(&a.gradientMagnitude, &b.gradientMagnitude, sizeof(a.gradientMagnitude)) == 0 &&
-      a.hit == b.hit;
+      std::memcmp(&a.scalar, &b.scalar, sizeof(a.scalar)) == 0 && a.hit == b.hit;
   };
   for (int model :
     { hv::PathTraced, hv::EmissionAbsorption, hv::GradientPhong, hv::PrefilteredEnvironment })
@@ -302,6 +302,59 @@ TEST(Render, RayMarchedModelsMatchBeerLambert)
         << c.name << " " << channel;
     }
     EXPECT_NEAR(alpha.mean(), c.environmentVisible ? 1.0 : opacity, 0.02 * opacity) << c.name;
+  }
+}
+
+// The scalar a pixel reports is the data's at its first scatter point, whatever the transfer
+// function shows: a ramp s = 0.1 + 0.8 x / 15 along the index x under a constant transfer
+// function, which trilinear interpolation reproduces exactly (up to the 16-bit storage), so
+// the reported scalar must equal the ramp at the reported point, for the path tracer's first
+// collision and the ray-marched models' half-opacity depth alike.
+TEST(Render, FirstScatterScalarIsTheDataAtTheFirstScatterPoint)
+{
+  const glm::ivec3 dims(16);
+  hv::VolumeGrid grid;
+  grid.setIndexToWorld(
+    glm::scale(glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f)), glm::vec3(1.0f / 15.0f)));
+  grid.setScalars(
+    dims, hvtest::sampleField(dims, [](const glm::vec3& p) { return 0.1f + 0.8f * p.x / 15.0f; }));
+  hvtest::setConstantTransferFunction(grid, 0.5f, glm::vec3(0.8f), 0.1f, 1.0f);
+  hv::EnvironmentMap environment;
+  environment.setUniformRadiance(glm::vec3(1.0f));
+  hv::SceneView scene = furnaceScene(grid, environment);
+  scene.stepLength = 0.005f;
+  // Looking along +x at the slab's side, so that first scatter points spread over the ramp.
+  const hv::EyeView eye =
+    makeEye(glm::lookAt(glm::vec3(-3.0f, 0.0f, 0.0f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
+      glm::ortho(-0.4f, 0.4f, -0.4f, 0.4f, 0.1f, 10.0f), 16, 16);
+  const glm::mat4 worldToIndex = glm::inverse(
+    glm::scale(glm::translate(glm::mat4(1.0f), glm::vec3(-0.5f)), glm::vec3(1.0f / 15.0f)));
+  for (int model : { hv::PathTraced, hv::PrefilteredEnvironment })
+  {
+    scene.model = model;
+    RunningStats reported;
+    int hits = 0;
+    for (int y = 0; y < 16; ++y)
+    {
+      for (int x = 0; x < 16; ++x)
+      {
+        const hv::PixelResult p = hv::renderPixel(scene, eye, x, y, 0u, 0u, 9u, 2);
+        if (!p.hit)
+        {
+          continue;
+        }
+        ++hits;
+        const glm::vec3 index = glm::vec3(worldToIndex * glm::vec4(p.firstScatterPosition, 1.0f));
+        ASSERT_NEAR(p.scalar, 0.1f + 0.8f * index.x / 15.0f, 1e-3f) << "model " << model;
+        reported.add(p.scalar);
+      }
+    }
+    EXPECT_EQ(hits, 256) << "model " << model;
+    // The points lie at different depths along the ramp (each of the path tracer's is one
+    // sample's free flight), not at one scalar.
+    EXPECT_GT(std::sqrt(reported.variance()), model == hv::PathTraced ? 0.02 : 0.0);
+    std::printf("[ info ] model %d: first scatter scalar %.4f +- %.4f\n", model, reported.mean(),
+      std::sqrt(reported.variance()));
   }
 }
 

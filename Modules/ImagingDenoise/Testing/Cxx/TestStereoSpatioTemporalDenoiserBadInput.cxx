@@ -7,6 +7,7 @@
 #include "PathTracingTestScene.h"
 #include "vtkStereoSpatioTemporalDenoiser.h"
 
+#include "vtkDoubleArray.h"
 #include "vtkExecutive.h"
 #include "vtkFieldData.h"
 #include "vtkTestErrorObserver.h"
@@ -81,6 +82,16 @@ int TestStereoSpatioTemporalDenoiserBadInput(int, char*[])
   rgbOnly->GetPointData()->AddArray(rgb);
   denoiser->SetInputData(1, rgbOnly);
   ExpectError(denoiser, "must be float with 4 component(s)");
+
+  // An optional buffer of the wrong type: the first scatter scalars as doubles.
+  auto doubleScalars = Copy(right);
+  vtkNew<vtkDoubleArray> scalars;
+  scalars->SetName("FirstScatterScalar");
+  scalars->SetNumberOfTuples(doubleScalars->GetNumberOfPoints());
+  scalars->Fill(0.5);
+  doubleScalars->GetPointData()->AddArray(scalars);
+  denoiser->SetInputData(1, doubleScalars);
+  ExpectError(denoiser, "\"FirstScatterScalar\" array must be float with 1 component(s)");
 
   // A missing matrix.
   auto noMatrix = Copy(right);

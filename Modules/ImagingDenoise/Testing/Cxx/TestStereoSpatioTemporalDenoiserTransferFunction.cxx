@@ -8,7 +8,11 @@
 //    least half its length, and the frame gains at least 3 dB over the dropped history's
 //    (measured at 64x64: 29.7 dB against 25.9, raw 16.3; history 4.5 frames, 4.1 before);
 // 3. new data drops the history even then (the mapper's "DataStamp" changed);
-// 4. images without a "DataStamp" cannot tell new data from a new transfer function, and drop it.
+// 4. images without a "DataStamp" cannot tell new data from a new transfer function, and drop it;
+// 5. the first scatter scalar test: a recolouring (the same surfaces) drops at most a tenth of
+//    the pixels' histories; where the images' "FirstScatterScalar" says the material changed
+//    (here moved by 0.5 on the left half of each eye's image, on the frame of the change), those
+//    pixels start over, and "MaterialChangedFraction" counts them.
 #include "DenoiserTestImages.h"
 #include "PathTracingTestScene.h"
 #include "vtkStereoSpatioTemporalDenoiser.h"
@@ -17,7 +21,11 @@
 
 #include "vtkColorTransferFunction.h"
 #include "vtkFieldData.h"
+#include "vtkFloatArray.h"
+#include "vtkPointData.h"
+#include "vtkUnsignedCharArray.h"
 
+#include <cmath>
 #include <iostream>
 #include <vector>
 
@@ -72,14 +80,16 @@ int TestStereoSpatioTemporalDenoiserTransferFunction(int, char*[])
 
   pathtracingtest::OffscreenScene scene;
   scene.Mapper->ProgressiveAccumulationOff();
-  vtkNew<vtkStereoSpatioTemporalDenoiser> dropping, relighting;
+  vtkNew<vtkStereoSpatioTemporalDenoiser> dropping, relighting, otherMaterial;
   relighting->RelightHistoryOnTransferFunctionChangeOn();
+  otherMaterial->RelightHistoryOnTransferFunctionChangeOn();
   if (dropping->GetRelightHistoryOnTransferFunctionChange())
   {
     std::cerr << "FAILED: RelightHistoryOnTransferFunctionChange is on by default\n";
     ++failures;
   }
-  for (vtkStereoSpatioTemporalDenoiser* denoiser : { dropping.Get(), relighting.Get() })
+  for (vtkStereoSpatioTemporalDenoiser* denoiser :
+    { dropping.Get(), relighting.Get(), otherMaterial.Get() })
   {
     denoiser->SetInputData(0, scene.Mapper->GetEyeOutput(0));
     denoiser->SetInputData(1, scene.Mapper->GetEyeOutput(1));
@@ -93,12 +103,46 @@ int TestStereoSpatioTemporalDenoiserTransferFunction(int, char*[])
   for (int k = 0; k < 8; ++k)
   {
     frame();
+    otherMaterial->Update();
   }
   const double lengthBefore = FieldValue(relighting->GetEyeOutput(0), "MeanHistoryLength");
 
   // 1 and 2. The new colours.
   Recolour(scene.Property);
   frame();
+  // 5. The same frame with other material on the left half of each eye.
+  vtkNew<vtkImageData> shifted[2];
+  double leftHalfShare[2] = { 0.0, 0.0 };
+  for (int e = 0; e < 2; ++e)
+  {
+    vtkImageData* eye = scene.Mapper->GetEyeOutput(e);
+    shifted[e]->ShallowCopy(eye);
+    vtkNew<vtkFloatArray> scalar;
+    scalar->DeepCopy(eye->GetPointData()->GetArray("FirstScatterScalar"));
+    auto* valid =
+      vtkUnsignedCharArray::SafeDownCast(eye->GetPointData()->GetArray("FirstScatterValid"));
+    int seen = 0, moved = 0;
+    for (vtkIdType i = 0; i < scalar->GetNumberOfTuples(); ++i)
+    {
+      if (valid->GetValue(i))
+      {
+        ++seen;
+        if (i % Size < Size / 2)
+        {
+          scalar->SetValue(i, std::fmod(scalar->GetValue(i) + 0.5f, 1.0f));
+          ++moved;
+        }
+      }
+    }
+    leftHalfShare[e] = static_cast<double>(moved) / seen;
+    vtkNew<vtkPointData> points;
+    points->ShallowCopy(eye->GetPointData());
+    points->RemoveArray("FirstScatterScalar");
+    points->AddArray(scalar);
+    shifted[e]->GetPointData()->ShallowCopy(points);
+    otherMaterial->SetInputData(e, shifted[e]);
+  }
+  otherMaterial->Update();
   const double raw = 0.5 *
     (hv::denoise::displayPSNR(Display(scene.Mapper->GetEyeOutput(0)), reference[0]) +
       hv::denoise::displayPSNR(Display(scene.Mapper->GetEyeOutput(1)), reference[1]));
@@ -119,6 +163,25 @@ int TestStereoSpatioTemporalDenoiserTransferFunction(int, char*[])
     std::cerr << "FAILED: RelightHistoryOnTransferFunctionChange did not keep the history, or "
                  "kept it without gaining 3 dB\n";
     ++failures;
+  }
+  for (int e = 0; e < 2; ++e)
+  {
+    const double recoloured = FieldValue(relighting->GetEyeOutput(e), "MaterialChangedFraction");
+    const double moved = FieldValue(otherMaterial->GetEyeOutput(e), "MaterialChangedFraction");
+    std::cout << "eye " << e << ": the scalar test dropped " << recoloured
+              << " of the histories for the new colours, " << moved
+              << " where the left half's material changed (" << leftHalfShare[e]
+              << " of the pixels that see the volume)\n";
+    if (!(recoloured < 0.1))
+    {
+      std::cerr << "FAILED: the scalar test dropped the history of the same surfaces\n";
+      ++failures;
+    }
+    if (!(moved > recoloured + 0.7 * leftHalfShare[e] && moved < recoloured + leftHalfShare[e]))
+    {
+      std::cerr << "FAILED: the scalar test did not drop the history where the material changed\n";
+      ++failures;
+    }
   }
 
   // 3. New data: the same values in a new image, which the mapper quantises again.

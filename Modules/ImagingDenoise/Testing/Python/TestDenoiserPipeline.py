@@ -139,6 +139,14 @@ class DenoiserPipelineTest(unittest.TestCase):
         denoiser.RelightHistoryOnTransferFunctionChangeOn()
         self.assertTrue(denoiser.GetRelightHistoryOnTransferFunctionChange())
         denoiser.RelightHistoryOnTransferFunctionChangeOff()
+        # ... and then keeps it only where the first scatter scalar stayed within 0.1.
+        self.assertAlmostEqual(denoiser.GetClassificationScalarTolerance(), 0.1)
+        denoiser.SetClassificationScalarTolerance(2.0)  # clamped to the data's whole range
+        self.assertEqual(denoiser.GetClassificationScalarTolerance(), 1.0)
+        denoiser.SetClassificationScalarTolerance(0.1)
+        self.assertEqual(fields.GetArray("MaterialChangedFraction").GetValue(0), 0.0)
+        self.assertIsNotNone(mapper.GetEyeOutput(0).GetPointData()
+                             .GetArray("FirstScatterScalar"))
         self.assertEqual(denoiser.GetCoverageAgreementWidth(), 2.0)
         denoiser.SetCoverageAgreementWidth(-1.0)  # clamped: 0 filters coverage like colour
         self.assertEqual(denoiser.GetCoverageAgreementWidth(), 0.0)

@@ -59,6 +59,9 @@ struct PixelResult
   glm::vec3 albedo = glm::vec3(0.0f);
   glm::vec3 normal = glm::vec3(0.0f);
   float gradientMagnitude = 0.0f;
+  // The normalised scalar ([0, 1] over the volume's range) at the first scatter point: what
+  // material it is, whatever the transfer function makes of it.
+  float scalar = 0.0f;
   int hit = 0;
 };
 
@@ -68,6 +71,7 @@ struct FirstScatter
   glm::vec3 albedo;
   glm::vec3 normal;
   float gradientMagnitude;
+  float scalar;
   bool valid;
 };
 
@@ -199,6 +203,7 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
       first.albedo = albedo;
       first.normal = normal;
       first.gradientMagnitude = gradientMagnitude;
+      first.scalar = scalarAtCollision;
       first.valid = true;
     }
 
@@ -422,6 +427,7 @@ HV_FUNCTION glm::vec4 marchRay(const SceneView& scene, const glm::vec3& origin,
           first.albedo = albedo;
           first.normal = normal;
           first.gradientMagnitude = gradientMagnitude;
+          first.scalar = scalar;
           first.valid = true;
         }
         transmittance *= 1.0f - alpha;
@@ -533,6 +539,7 @@ HV_FUNCTION PixelResult renderPixel(const SceneView& scene, const EyeView& eye, 
       result.albedo = first.albedo;
       result.normal = first.normal;
       result.gradientMagnitude = first.gradientMagnitude;
+      result.scalar = first.scalar;
     }
   }
   const float inverseCount = 1.0f / static_cast<float>(samplesPerPixel);

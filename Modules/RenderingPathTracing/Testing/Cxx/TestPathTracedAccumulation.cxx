@@ -5,11 +5,16 @@
 // high-sample reference falls; a change of camera, transfer function, environment, lights or
 // rendering settings (the subpixel samples among them) restarts the accumulation, a
 // display-only change (exposure) does not. Progress events rise monotonically to 1 and the
-// frame index counts every frame.
+// frame index counts every frame. The images' "ClassificationStamp" (on which a denoiser drops
+// its history) changes with the transfer function and the data, and not when the property's
+// MTime moves with nothing in it changed (vtkVolume::SetProperty on a second volume);
+// "DataStamp" changes with the data alone.
 #include "PathTracingTestScene.h"
 
 #include "vtkCallbackCommand.h"
 #include "vtkCommand.h"
+#include "vtkDataArray.h"
+#include "vtkFieldData.h"
 #include "vtkFloatArray.h"
 #include "vtkLight.h"
 #include "vtkLightCollection.h"
@@ -138,11 +143,31 @@ int TestPathTracedAccumulation(int, char*[])
   expect(scene.Mapper->GetAccumulatedFrames(0) == 1, "a camera change restarts the accumulation");
 
   // Transfer-function change restarts.
+  auto stamp = [&](const char* name)
+  {
+    vtkDataArray* array = scene.Mapper->GetEyeOutput(0)->GetFieldData()->GetArray(name);
+    return array ? static_cast<int>(array->GetComponent(0, 0)) : -1;
+  };
   render();
+  const int classificationBefore = stamp("ClassificationStamp");
+  const int dataBefore = stamp("DataStamp");
   scene.Property->GetScalarOpacity()->AddPoint(1500, 0.5);
   render();
   expect(scene.Mapper->GetAccumulatedFrames(0) == 1,
     "a transfer-function change restarts the accumulation");
+  expect(stamp("ClassificationStamp") != classificationBefore && stamp("DataStamp") == dataBefore,
+    "a transfer-function change changes the ClassificationStamp and not the DataStamp");
+
+  // The property put on a second volume: vtkVolume::SetProperty calls its UpdateMTimes(), so
+  // its MTime moves, but nothing in it changed.
+  const int classificationNow = stamp("ClassificationStamp");
+  const vtkMTimeType propertyTime = scene.Property->GetMTime();
+  vtkNew<vtkVolume> second;
+  second->SetProperty(scene.Property);
+  expect(scene.Property->GetMTime() != propertyTime, "SetProperty touches the property");
+  render();
+  expect(stamp("ClassificationStamp") == classificationNow,
+    "a property touched without a change keeps the ClassificationStamp");
 
   // Environment change restarts.
   render();
@@ -159,6 +184,8 @@ int TestPathTracedAccumulation(int, char*[])
   render();
   expect(
     scene.Mapper->GetAccumulatedFrames(0) == 1, "modified input data restarts the accumulation");
+  expect(stamp("ClassificationStamp") != classificationNow && stamp("DataStamp") != dataBefore,
+    "new data changes both stamps");
 
   // A change of the lights restarts.
   vtkNew<vtkLightCollection> lights;

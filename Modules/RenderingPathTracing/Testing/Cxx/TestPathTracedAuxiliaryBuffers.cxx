@@ -7,7 +7,9 @@
 //   positions there, for at least 95 % of the pixels away from silhouettes;
 // - every first-scatter position projects back into its own pixel;
 // - Depth is the eye-space depth of the position, normals are unit vectors, and the field
-//   data carry the matrices the frame was rendered with.
+//   data carry the matrices the frame was rendered with;
+// - FirstScatterScalar is the data's scalar there, normalised over its range 0..2000: above
+//   1500 (0.75), below which the transfer function is transparent and nothing scatters.
 #include "PathTracingTestScene.h"
 
 #include "vtkDoubleArray.h"
@@ -24,6 +26,7 @@ struct EyeBuffers
   vtkFloatArray* Position;
   vtkFloatArray* Depth;
   vtkFloatArray* Normal;
+  vtkFloatArray* Scalar;
   vtkUnsignedCharArray* Valid;
   double ViewProjection[16];
   double View[16];
@@ -34,6 +37,7 @@ struct EyeBuffers
     this->Position = vtkFloatArray::SafeDownCast(pd->GetArray("FirstScatterPosition"));
     this->Depth = vtkFloatArray::SafeDownCast(pd->GetArray("Depth"));
     this->Normal = vtkFloatArray::SafeDownCast(pd->GetArray("Normal"));
+    this->Scalar = vtkFloatArray::SafeDownCast(pd->GetArray("FirstScatterScalar"));
     this->Valid = vtkUnsignedCharArray::SafeDownCast(pd->GetArray("FirstScatterValid"));
     auto* view = vtkDoubleArray::SafeDownCast(image->GetFieldData()->GetArray("ViewMatrix"));
     auto* projection =
@@ -46,7 +50,10 @@ struct EyeBuffers
     }
   }
 
-  bool Complete() const { return this->Position && this->Depth && this->Normal && this->Valid; }
+  bool Complete() const
+  {
+    return this->Position && this->Depth && this->Normal && this->Scalar && this->Valid;
+  }
 
   // Continuous pixel coordinates of a world point (pixel centres at i + 0.5).
   bool Project(const float* x, int size, double pixel[2]) const
@@ -119,6 +126,7 @@ int TestPathTracedAuxiliaryBuffers(int, char*[])
   };
 
   int hits = 0, ownPixel = 0, compared = 0, matched = 0, badDepth = 0, badNormal = 0;
+  int badScalar = 0;
   for (int y = 0; y < size; ++y)
   {
     for (int x = 0; x < size; ++x)
@@ -142,6 +150,11 @@ int TestPathTracedAuxiliaryBuffers(int, char*[])
       if (std::abs(-eyeSpace[2] - left.Depth->GetValue(pixel)) > 1e-3 * std::abs(eyeSpace[2]))
       {
         ++badDepth;
+      }
+      const float scalar = left.Scalar->GetValue(pixel);
+      if (!(scalar > 0.75f && scalar <= 1.0f))
+      {
+        ++badScalar;
       }
       const float* n = left.Normal->GetPointer(3 * pixel);
       if (std::abs(std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) - 1.0) > 1e-3)
@@ -193,6 +206,11 @@ int TestPathTracedAuxiliaryBuffers(int, char*[])
   {
     std::cerr << "Left-to-right reprojection matched only " << matched << " of " << compared
               << " pixels.\n";
+    ++failures;
+  }
+  if (badScalar > 0)
+  {
+    std::cerr << badScalar << " first scatter scalars lie outside the opaque range (0.75, 1].\n";
     ++failures;
   }
   if (badDepth > 0 || badNormal > 0)

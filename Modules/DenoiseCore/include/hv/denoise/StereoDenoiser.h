@@ -29,6 +29,11 @@ struct EyeFrame
   const float* albedo = nullptr;            // 3 per pixel
   const float* normal = nullptr;            // 3 per pixel, unit, facing the eye
   const float* gradientMagnitude = nullptr; // 1 per pixel, [0, 1]
+  // The volume's scalar at the first scatter point, normalised to [0, 1] over its range
+  // (optional): what material the pixel shows, whatever the transfer function makes of it.
+  // relightHistoryForNewClassification() uses it to tell a surface that stayed from other
+  // material found at the same place.
+  const float* firstScatterScalar = nullptr;
   glm::mat4 view = glm::mat4(1.0f);
   glm::mat4 projection = glm::mat4(1.0f);
   // World from volume (the vtkVolume's matrix). When it changes between frames, first scatter
@@ -97,6 +102,24 @@ struct DenoiserParameters
   // over. 3 halves what is left of a moved hard shadow and costs 0.5 dB on the evaluation's
   // rotating environment (false rejections); 2 cuts the shadow to a third and costs 1.7 dB.
   float relitHistoryRejection = 3.0f;
+  // On the frame after relightHistoryForNewClassification(), a pixel keeps its history only
+  // where the normalised scalar at its first scatter points, as a mean over the pixels of its
+  // 3x3 neighbourhood that see a surface, lies within this of the same mean at one of the
+  // history's bilinear taps in the previous frame (when both frames carry firstScatterScalar;
+  // 0: no test). Over a run of such frames (a drag) each compares with the scalar the history
+  // was gathered on, carried along from the run's first frame, so that steps each within the
+  // tolerance cannot add up to another material unnoticed. A preset that makes the skin
+  // transparent shows the tissue below it at nearly the same depth, so the disocclusion tests
+  // pass while the material changed; relit, the old material's shading detail lingered (on the
+  // head MRI 24 frames to reach the denoiser's level with the new transfer function all along,
+  // against 15 with the history dropped). One sample's first scatter scalar varies by 0.03 from
+  // frame to frame there under one transfer function (median; 0.075 at the 90th percentile),
+  // which the 3x3 mean cuts by 3; a threshold edit moved it by 0.05 / 0.10, the switch to the
+  // inner tissue by 0.20 / 0.27. With 0.1 the switch recovers as with the history dropped and
+  // the threshold edit keeps its gain (Documentation/Denoising.md, "The first scatter scalar
+  // test"). In units of the volume's scalar range, so a volume with a wider range than the
+  // contrasts of interest (CT in Hounsfield units) wants a smaller one.
+  float classificationScalarTolerance = 0.1f;
   // Fetch the history's colour with a Catmull-Rom filter (bilinear where the 4x4 taps do not
   // all see the same surface). A bilinear fetch low-passes the history at every reprojection of
   // a moving view, and the blur accumulates over the history's length. Off by default: on the
@@ -176,6 +199,9 @@ struct DenoiserStatistics
   double meanHistoryLength[2] = { 0, 0 };   // frames, over pixels that see the volume
   float temporalGate = 0.0f;                // delta(1 / (T - 1)) of the frame
   bool newClassification = false;           // relit for a new transfer function
+  // On such a frame, of the pixels that see the volume, those whose history the scalar test
+  // dropped (classificationScalarTolerance): other material than the history showed.
+  double materialChangedFraction[2] = { 0, 0 };
 };
 
 // The two-step stereo spatio-temporal denoiser of the paper's Section 3.2 over VTK-free
@@ -222,7 +248,9 @@ public:
   // next new frame and to a replaceLastFrame call that repeats it; reset() cancels it. Without
   // relighting (relightingRadius 0, or the exponential average) it is a reset. Where the new
   // transfer function shows other material at nearly the same depth, the disocclusion tests
-  // pass and the relit history keeps the old material's detail until it fades; reset() is the
+  // pass; the frames' first scatter scalars (EyeFrame::firstScatterScalar) then tell the
+  // material changed, and those pixels start over (classificationScalarTolerance). Without
+  // them the relit history keeps the old material's detail until it fades, and reset() is the
   // better choice for such a switch.
   void relightHistoryForNewClassification();
 
@@ -233,7 +261,7 @@ public:
   // non-finite radiance the outputs hold a copy of it). With replaceLastFrame the
   // call denoises the last frame again (say, after a parameter change) from the history it
   // started with, instead of counting the same samples twice as a new frame. When memory runs
-  // out (the denoiser keeps 89 floats a pixel per eye, about 480 MB an eye at 1440x936), it
+  // out (the denoiser keeps 91 floats a pixel per eye, about 490 MB an eye at 1440x936), it
   // returns false and says how much it needs, and starts over like a new denoiser.
   bool denoise(const EyeFrame* eyes, int eyeCount, float illuminationDifference,
     float* const* outputs, std::string& error, bool replaceLastFrame = false);
