@@ -101,15 +101,15 @@ public:
    * RelitHistoryRejection), and the albedo, which the new colours changed, is left out of that
    * frame's temporal weight. Meant for interactive editing (window and level, opacity), where
    * each frame brings a new transfer function and a dropped history would leave every frame
-   * at the spatial filter's quality: on the head MRI a threshold edit's frame is 6.5 dB better
+   * at the spatial filter's quality: on the head MRI a threshold edit's frame is 6.9 dB better
    * than with the history dropped at 96x62. Where a transfer function shows other tissue at
    * nearly the same depths (a preset that removes the skin's outer layer), the disocclusion
    * tests pass; the mapper's "FirstScatterScalar" then tells that the material changed, and
-   * those pixels start over (ClassificationScalarTolerance), so such a switch recovers as
-   * fast as with the history dropped. Images without that array keep the old material's
-   * relit detail there, and the view recovers more slowly than with the history dropped (see
-   * Documentation/Denoising.md). New data always drops the history. With RelightingRadius 0
-   * or an exponential average a change drops it too.
+   * those pixels start over (ClassificationScalarTolerance), so such a switch recovers about
+   * as fast as with the history dropped (level at 96x62, a frame behind at 288x186). Images
+   * without that array keep the old material's relit detail there, and the view recovers
+   * 10 frames later than with the history dropped (see Documentation/Denoising.md). New data always
+   * drops the history. With RelightingRadius 0 or an exponential average a change drops it too.
    */
   vtkSetMacro(RelightHistoryOnTransferFunctionChange, bool);
   vtkGetMacro(RelightHistoryOnTransferFunctionChange, bool);
@@ -237,9 +237,9 @@ public:
    * after frame, the scalar is compared with where the run started, not with the frame
    * before. On the head MRI one transfer function's first scatter scalar varies by 0.03 from
    * frame to frame (median; 0.075 at the 90th percentile), and a switch to the inner tissue
-   * moves it by 0.2: 0.1 recovers from that switch as with the history dropped and keeps a
-   * threshold edit's gain. In units of the data's range, so data with a wider range than the
-   * tissue contrasts of interest (CT in Hounsfield units) wants a smaller value. The output's
+   * moves it by 0.2: 0.1 recovers from that switch about as with the history dropped and
+   * keeps a threshold edit's gain. In units of the data's range, so data with a wider range than
+   * the tissue contrasts of interest (CT in Hounsfield units) wants a smaller value. The output's
    * "MaterialChangedFraction" says which fraction of the pixels that see the volume it sent
    * back to the start.
    */

@@ -115,8 +115,8 @@ struct DenoiserParameters
   // against 15 with the history dropped). One sample's first scatter scalar varies by 0.03 from
   // frame to frame there under one transfer function (median; 0.075 at the 90th percentile),
   // which the 3x3 mean cuts by 3; a threshold edit moved it by 0.05 / 0.10, the switch to the
-  // inner tissue by 0.20 / 0.27. With 0.1 the switch recovers as with the history dropped and
-  // the threshold edit keeps its gain (Documentation/Denoising.md, "The first scatter scalar
+  // inner tissue by 0.20 / 0.27. With 0.1 the switch recovers about as with the history dropped
+  // and the threshold edit keeps its gain (Documentation/Denoising.md, "The first scatter scalar
   // test"). In units of the volume's scalar range, so a volume with a wider range than the
   // contrasts of interest (CT in Hounsfield units) wants a smaller one.
   float classificationScalarTolerance = 0.1f;
