@@ -1795,6 +1795,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       float* __restrict albedoGreen = surface.albedo[1].data() + row;
       float* __restrict albedoBlue = surface.albedo[2].data() + row;
       float* __restrict valid = surface.valid.data() + row;
+      // Without scalars the plane keeps what it held: hasScalar is false, and nothing reads it.
       if (f.firstScatterScalar)
       {
         const float* __restrict frameScalar = f.firstScatterScalar + row;
@@ -1804,10 +1805,6 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
         {
           scalar[k] = keptIf(frameScalar[k], 0u - static_cast<std::uint32_t>(own[k] != 0));
         }
-      }
-      else
-      {
-        std::fill_n(surface.scalar.data() + row, count, 0.0f);
       }
 #pragma GCC ivdep
       for (int k = 0; k < count; ++k)
