@@ -35,6 +35,7 @@
 #include "vtkShaderProgram.h"
 #include "vtkStereoSpatioTemporalDenoiser.h"
 #include "vtkTextureObject.h"
+#include "vtkTimeStamp.h"
 #include "vtkUnsignedCharArray.h"
 #include "vtkVolume.h"
 #include "vtkVolumeProperty.h"
@@ -162,6 +163,11 @@ public:
   float ClassifiedDensityScale = -1.0f;
   float ClassifiedMaximumGradient = -1.0f;
   int ClassifiedDataStamp = -1;
+  // When what the property puts into the frame last changed (the classification above and the
+  // shading coefficients), for SceneKey: the property's own MTime moves without a change too,
+  // and progressive accumulation would restart on it.
+  vtkTimeStamp PropertyContentTime;
+  std::array<float, 4> ShadingCoefficients = { -1.0f, -1.0f, -1.0f, -1.0f };
   glm::mat4 VolumeMatrix = glm::mat4(1.0f); // the prop's matrix: world from volume
   std::array<EyeState, 2> Eyes;
   // The right eye's matrices of the last denoised stereo window frame, whose second pass
@@ -507,6 +513,7 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
     if (!sameClassification)
     {
       ++internals->ClassificationStamp;
+      internals->PropertyContentTime.Modified();
       internals->ClassifiedOpacity = std::move(opacity);
       internals->ClassifiedAlbedo = std::move(albedo);
       internals->ClassifiedGradientTable = std::move(gradientTable);
@@ -717,9 +724,18 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
   scene.specular = static_cast<float>(property->GetSpecular(0));
   scene.specularPower = static_cast<float>(property->GetSpecularPower(0));
 
-  internals->SceneKey = std::max(
-    { scalarsTime, property->GetMTime(), volume->GetMTime(), volume->GetMatrix()->GetMTime(),
-      environmentTime, self->GetEnvironmentToWorldMatrix()->GetMTime(), lightsTime, planesTime });
+  const std::array<float, 4> shading = { scene.ambient, scene.diffuse, scene.specular,
+    scene.specularPower };
+  if (shading != internals->ShadingCoefficients)
+  {
+    internals->ShadingCoefficients = shading;
+    internals->PropertyContentTime.Modified();
+  }
+  // The property by what it holds, not its MTime; and the volume's own MTime, not vtkVolume's,
+  // which includes the property's.
+  internals->SceneKey = std::max({ scalarsTime, internals->PropertyContentTime.GetMTime(),
+    volume->vtkProp3D::GetMTime(), volume->GetMatrix()->GetMTime(), environmentTime,
+    self->GetEnvironmentToWorldMatrix()->GetMTime(), lightsTime, planesTime });
   return true;
 }
 

@@ -182,7 +182,9 @@ public:
   ///@{
   /**
    * Progressive rendering: while camera, data, property, lights, environment and settings stay
-   * unchanged, each frame's samples are averaged with the earlier ones. On by default.
+   * unchanged, each frame's samples are averaged with the earlier ones. On by default. The
+   * property counts by what it holds (its transfer-function tables and shading coefficients),
+   * not by its MTime, which also moves without a change (vtkVolume::SetProperty).
    */
   vtkSetMacro(ProgressiveAccumulation, bool);
   vtkGetMacro(ProgressiveAccumulation, bool);

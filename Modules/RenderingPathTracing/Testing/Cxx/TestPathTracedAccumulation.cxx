@@ -7,8 +7,8 @@
 // display-only change (exposure) does not. Progress events rise monotonically to 1 and the
 // frame index counts every frame. The images' "ClassificationStamp" (on which a denoiser drops
 // its history) changes with the transfer function and the data, and not when the property's
-// MTime moves with nothing in it changed (vtkVolume::SetProperty on a second volume);
-// "DataStamp" changes with the data alone.
+// MTime moves with nothing in it changed (vtkVolume::SetProperty on a second volume), which
+// keeps accumulating too; "DataStamp" changes with the data alone.
 #include "PathTracingTestScene.h"
 
 #include "vtkCallbackCommand.h"
@@ -162,12 +162,28 @@ int TestPathTracedAccumulation(int, char*[])
   // its MTime moves, but nothing in it changed.
   const int classificationNow = stamp("ClassificationStamp");
   const vtkMTimeType propertyTime = scene.Property->GetMTime();
+  const int framesBeforeTouch = scene.Mapper->GetAccumulatedFrames(0);
   vtkNew<vtkVolume> second;
   second->SetProperty(scene.Property);
   expect(scene.Property->GetMTime() != propertyTime, "SetProperty touches the property");
   render();
   expect(stamp("ClassificationStamp") == classificationNow,
     "a property touched without a change keeps the ClassificationStamp");
+  expect(scene.Mapper->GetAccumulatedFrames(0) == framesBeforeTouch + 1,
+    "a property touched without a change keeps accumulating");
+  // So does a property set to what it already holds and modified; a new shading coefficient,
+  // which the path tracer reads, restarts.
+  scene.Property->SetScalarOpacity(scene.Property->GetScalarOpacity());
+  scene.Property->Modified();
+  render();
+  expect(scene.Mapper->GetAccumulatedFrames(0) == framesBeforeTouch + 2,
+    "a property modified without a change keeps accumulating");
+  scene.Property->SetDiffuse(scene.Property->GetDiffuse() * 0.5);
+  render();
+  expect(scene.Mapper->GetAccumulatedFrames(0) == 1,
+    "a new diffuse coefficient restarts the accumulation");
+  expect(stamp("ClassificationStamp") == classificationNow,
+    "a new diffuse coefficient keeps the ClassificationStamp");
 
   // Environment change restarts.
   render();
