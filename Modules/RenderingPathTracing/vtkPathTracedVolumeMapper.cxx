@@ -363,6 +363,28 @@ bool ReportInputProblem(
 }
 }
 
+namespace
+{
+// Continuous kernel index -> structured index (the extent's start) -> physical -> world.
+glm::mat4 IndexToWorld(vtkImageData* input, vtkVolume* volume)
+{
+  int extent[6];
+  input->GetExtent(extent);
+  vtkNew<vtkMatrix4x4> shift;
+  for (int axis = 0; axis < 3; ++axis)
+  {
+    shift->SetElement(axis, 3, extent[2 * axis]);
+  }
+  vtkNew<vtkMatrix4x4> indexToPhysical;
+  input->ComputeIndexToPhysicalMatrix(input->GetOrigin(), input->GetSpacing(),
+    input->GetDirectionMatrix()->GetData(), indexToPhysical->GetData());
+  vtkMatrix4x4::Multiply4x4(indexToPhysical, shift, indexToPhysical);
+  vtkNew<vtkMatrix4x4> indexToWorld;
+  vtkMatrix4x4::Multiply4x4(volume->GetMatrix(), indexToPhysical, indexToWorld);
+  return ToGlm(indexToWorld);
+}
+}
+
 // Prepares the kernel scene from the input, property, environment, lights and settings.
 // Returns false (after reporting why) when nothing can be rendered.
 bool vtkPathTracedVolumeMapper::PrepareScene(
@@ -416,8 +438,10 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
     {
       worker(scalars, quantized.data(), range[0], scale);
     }
+    // With their matrix: the grid searches the voxels for the largest world gradient magnitude
+    // as it takes them, and under the matrix it held (another spacing) step 2 would search again.
     internals->Grid.setQuantizedScalars(
-      glm::ivec3(dims[0], dims[1], dims[2]), std::move(quantized));
+      glm::ivec3(dims[0], dims[1], dims[2]), std::move(quantized), IndexToWorld(input, volume));
     internals->ScalarRange[0] = range[0];
     internals->ScalarRange[1] = range[1];
     input->GetExtent(internals->Extent);
@@ -427,21 +451,8 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
     internals->TransferTime = 0; // force reclassification
   }
 
-  // 2. Geometry: continuous kernel index -> structured index -> physical -> world.
-  vtkNew<vtkMatrix4x4> indexToWorld;
-  {
-    vtkNew<vtkMatrix4x4> shift;
-    for (int axis = 0; axis < 3; ++axis)
-    {
-      shift->SetElement(axis, 3, internals->Extent[2 * axis]);
-    }
-    vtkNew<vtkMatrix4x4> indexToPhysical;
-    input->ComputeIndexToPhysicalMatrix(input->GetOrigin(), input->GetSpacing(),
-      input->GetDirectionMatrix()->GetData(), indexToPhysical->GetData());
-    vtkMatrix4x4::Multiply4x4(indexToPhysical, shift, indexToPhysical);
-    vtkMatrix4x4::Multiply4x4(volume->GetMatrix(), indexToPhysical, indexToWorld);
-  }
-  const glm::mat4 indexToWorldGlm = ToGlm(indexToWorld);
+  // 2. Geometry.
+  const glm::mat4 indexToWorldGlm = IndexToWorld(input, volume);
   internals->VolumeMatrix = ToGlm(volume->GetMatrix());
   const bool gradientsChanged = internals->Grid.setIndexToWorld(indexToWorldGlm);
 

@@ -736,6 +736,34 @@ TEST(VolumeGrid, GradientMagnitudesFollowScaleButNotRotation)
   EXPECT_NEAR(grid.maximumGradientMagnitude(), 0.5f * original, 1e-4f * original);
 }
 
+// The mapper gives the grid a new volume's scalars with their matrix, so that the largest
+// gradient magnitude is searched for once, under that matrix: it must equal what scalars and then
+// the matrix give, and the same matrix again must not search again.
+TEST(VolumeGrid, ScalarsWithTheirMatrixGiveTheSameMaximumGradient)
+{
+  const glm::ivec3 dims(9, 7, 6);
+  std::vector<float> scalars(static_cast<std::size_t>(dims.x) * dims.y * dims.z);
+  hv::VolumeGrid::ScalarArray quantized(scalars.size());
+  for (std::size_t v = 0; v < scalars.size(); ++v)
+  {
+    scalars[v] = 0.5f + 0.4f * std::sin(0.9f * static_cast<float>(v % 17) + 0.3f * (v / 63));
+    quantized[v] = hv::VolumeGrid::quantize(scalars[v]);
+  }
+  const glm::mat4 spacing = glm::scale(glm::mat4(1.0f), glm::vec3(0.4f, 0.9f, 2.5f));
+  hv::VolumeGrid scalarsFirst;
+  scalarsFirst.setScalars(dims, scalars);
+  EXPECT_TRUE(scalarsFirst.setIndexToWorld(spacing));
+  hv::VolumeGrid together;
+  together.setQuantizedScalars(dims, std::move(quantized), spacing);
+  EXPECT_FALSE(together.setIndexToWorld(spacing));
+  EXPECT_EQ(together.maximumGradientMagnitude(), scalarsFirst.maximumGradientMagnitude());
+  EXPECT_GT(together.maximumGradientMagnitude(), 0.0f);
+  // New scalars under the same matrix keep it.
+  together.setScalars(dims, scalars);
+  EXPECT_FALSE(together.setIndexToWorld(spacing));
+  EXPECT_EQ(together.maximumGradientMagnitude(), scalarsFirst.maximumGradientMagnitude());
+}
+
 namespace
 {
 // A sparse random occupancy: scalar 1 in a few small blobs, 0 elsewhere, under a table that

@@ -25,6 +25,12 @@ void VolumeGrid::setScalars(const glm::ivec3& dims, const std::vector<float>& no
 
 void VolumeGrid::setQuantizedScalars(const glm::ivec3& dims, ScalarArray scalars)
 {
+  this->setQuantizedScalars(dims, std::move(scalars), this->IndexToWorld);
+}
+
+void VolumeGrid::setQuantizedScalars(
+  const glm::ivec3& dims, ScalarArray scalars, const glm::mat4& indexToWorld)
+{
   this->Dims = dims;
   this->Scalars = std::move(scalars);
   this->GradientOpacityFactor.clear();
@@ -62,7 +68,7 @@ void VolumeGrid::setQuantizedScalars(const glm::ivec3& dims, ScalarArray scalars
       }
     });
   this->CellRangesStale = true;
-  this->setIndexToWorld(this->IndexToWorld);
+  this->setIndexToWorld(indexToWorld); // searches, as MaximumGradientKnown is false
 }
 
 namespace

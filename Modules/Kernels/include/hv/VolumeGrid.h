@@ -49,6 +49,11 @@ public:
   // (quantize()), which the grid takes over: a caller that reads another type (the mapper: any
   // VTK scalar type) then writes 2 bytes a voxel once, instead of a float and then 2 bytes.
   void setQuantizedScalars(const glm::ivec3& dims, ScalarArray scalars);
+  // The same under a new index-to-world matrix (setIndexToWorld), taken before the largest
+  // world gradient magnitude is searched for: the scalars and the matrix of a new volume then
+  // cost one search over its voxels, not one under the old matrix and another under the new.
+  void setQuantizedScalars(
+    const glm::ivec3& dims, ScalarArray scalars, const glm::mat4& indexToWorld);
 
   // Affine map from continuous voxel indices to world coordinates (origin, spacing,
   // direction and the prop's matrix combined). Returns true when the world gradient
