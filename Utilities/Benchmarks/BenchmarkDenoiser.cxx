@@ -55,7 +55,8 @@ Times vtkStereoSpatioTemporalDenoiser on stereo frames of the path tracer, next 
 tracer's own frame time, in one run: each stage of the full denoiser, variants without D2 or
 without the history, relit every frame for a change of light or for a new transfer function
 (with the first scatter scalar test and without), and the first frame apart (where each
-denoiser sizes and zeroes its planes, and the mapper builds its grids).
+denoiser sizes its planes and maps their pages where it first writes them, and the mapper
+builds its grids).
 
   --volume FILE        volume (.nii, .nii.gz, .vti)
                        [/usr/share/mricron/templates/ch2.nii.gz, package mricron-data]
@@ -198,8 +199,8 @@ int main(int argc, char* argv[])
   }
 
   std::vector<double> renderMs;
-  // The first frame apart: the mapper builds its grids, each denoiser sizes and zeroes its
-  // planes (about 90 floats a pixel per eye), whose first touch costs page faults.
+  // The first frame apart: the mapper builds its grids, each denoiser sizes its planes (about
+  // 90 floats a pixel per eye), whose pages cost faults where the stages first write them.
   double firstRenderMs = 0.0, firstDenoiseMs = 0.0;
   const double aspect = static_cast<double>(width) / height;
   std::cerr << "rendering and denoising " << frames + 2 << " stereo frames at " << width << "x"
@@ -282,8 +283,8 @@ int main(int argc, char* argv[])
       (std::string("vtkStereoSpatioTemporalDenoiser, ") + v.Name).c_str(), Median(v.Milliseconds),
       Minimum(v.Milliseconds));
   }
-  std::printf("\nfirst frame, ms (the mapper builds its grids; the denoiser sizes and zeroes "
-              "its planes)\n");
+  std::printf("\nfirst frame, ms (the mapper builds its grids; the denoiser sizes its planes "
+              "and first writes their pages)\n");
   std::printf("%-56s %12.1f\n", "vtkPathTracedVolumeMapper", firstRenderMs);
   std::printf("%-56s %12.1f\n", "vtkStereoSpatioTemporalDenoiser, full (D1 + D2)", firstDenoiseMs);
   static const char* stageNames[vtkStereoSpatioTemporalDenoiser::NumberOfStages] = { "surfaces",

@@ -312,12 +312,12 @@ struct EyeState
     return bytesPerPixel * static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
   }
 
-  // Every plane zeroed, the spans empty, no history. Called only when the size changes: the
-  // first frame and a resize pay it. The planes are zeroed by parallelFor's threads, so that
-  // the first touch of fresh memory, whose page faults the first frame spends most of its time
-  // in, runs on every core (PlaneAllocator.h). Throws std::bad_alloc when memory runs out;
+  // Every plane zeroed, the spans empty, no history. Called only when the size changes (the
+  // first frame, a resize, a switch between mono and stereo). The zeros cost no writes here:
+  // the planes' pages are mapped as the stages first write them, on every thread, and only
+  // where the volume is seen (PlaneAllocator.h). Throws std::bad_alloc when memory runs out;
   // release() then frees what was allocated.
-  void resize(int w, int h, const StereoDenoiser::ParallelFor& parallelFor)
+  void resize(int w, int h)
   {
     const std::size_t n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
     this->width = w;
@@ -339,30 +339,13 @@ struct EyeState
       surfaces->hasScalar = false;
     }
 
-    // Every plane sized without a value (PlaneAllocator leaves trivial elements unwritten),
-    // then zeroed in blocks of 2 MiB.
-    constexpr std::size_t blockBytes = std::size_t(2) << 20;
-    std::vector<std::pair<unsigned char*, std::size_t>> blocks;
+    // Every plane allocated afresh, which PlaneAllocator returns zeroed; resize(n) leaves the
+    // elements unwritten. Pages that no span reaches are never written, and cost nothing.
     this->forEachPlane(
-      [&](auto& plane)
+      [n](auto& plane)
       {
-        plane.clear();
+        std::decay_t<decltype(plane)>().swap(plane);
         plane.resize(n);
-        unsigned char* bytes = reinterpret_cast<unsigned char*>(plane.data());
-        const std::size_t size = plane.size() * sizeof(plane[0]);
-        for (std::size_t offset = 0; offset < size; offset += blockBytes)
-        {
-          blocks.emplace_back(bytes + offset, std::min(blockBytes, size - offset));
-        }
-      });
-    parallelFor(static_cast<std::int64_t>(blocks.size()),
-      [&blocks](std::int64_t begin, std::int64_t end)
-      {
-        for (std::int64_t i = begin; i < end; ++i)
-        {
-          const auto& block = blocks[static_cast<std::size_t>(i)];
-          std::memset(block.first, 0, block.second);
-        }
       });
   }
 
@@ -1659,7 +1642,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
     impl.eyeCount = eyeCount;
     for (EyeState& eye : impl.eyes)
     {
-      eye.resize(0, 0, impl.parallelFor);
+      eye.resize(0, 0);
     }
   }
   // A new transfer function (relightHistoryForNewClassification) counts as a complete change
@@ -1681,7 +1664,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
   {
     if (impl.eyes[e].width != width || impl.eyes[e].height != height)
     {
-      impl.eyes[e].resize(width, height, impl.parallelFor);
+      impl.eyes[e].resize(width, height);
     }
     EyeState& eye = impl.eyes[e];
     if (replaceLastFrame && eye.canReplace)
