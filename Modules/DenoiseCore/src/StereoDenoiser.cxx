@@ -1184,41 +1184,39 @@ struct StereoDenoiser::Internals
     {
       return 0;
     }
-    const float scalarTolerance = materialTest && eye.surface.hasScalar &&
-        eye.previousSurface.hasScalar && p.classificationScalarTolerance > 0.0f
-      ? p.classificationScalarTolerance
-      : std::numeric_limits<float>::infinity();
+    const bool testMaterial = materialTest && eye.surface.hasScalar &&
+      eye.previousSurface.hasScalar && p.classificationScalarTolerance > 0.0f;
+    const float scalarTolerance = p.classificationScalarTolerance;
     std::atomic<std::int64_t> materialChanged{ 0 };
     // What the taps are compared with: the previous frame's anchors where it was itself the
     // frame of a new transfer function (a drag), its own 3x3 means otherwise.
-    const float* scalarReference = eye.previousScalarMean.data();
-    if (scalarTolerance < std::numeric_limits<float>::infinity())
+    const float* scalarReference = nullptr;
+    if (testMaterial)
     {
       eye.surface.scalarAnchor.resize(static_cast<std::size_t>(width) * height);
       eye.surface.hasScalarAnchor = true;
-    }
-    if (scalarTolerance < std::numeric_limits<float>::infinity() &&
-      eye.previousSurface.hasScalarAnchor)
-    {
-      scalarReference = eye.previousSurface.scalarAnchor.data();
-    }
-    else if (scalarTolerance < std::numeric_limits<float>::infinity())
-    {
-      // The previous frame's 3x3 means where it saw a surface (inside its spans), which the
-      // taps read; sized on first use, as most scenes never change their transfer function.
-      eye.previousScalarMean.resize(static_cast<std::size_t>(width) * height);
-      scalarReference = eye.previousScalarMean.data();
-      this->forRows(1, height,
-        [&](int, int y) HV_WIDEST_VECTORS
-        {
-          const RowSpan& span = eye.previousSpan[static_cast<std::size_t>(y)];
-          if (span.begin < span.end)
+      if (eye.previousSurface.hasScalarAnchor)
+      {
+        scalarReference = eye.previousSurface.scalarAnchor.data();
+      }
+      else
+      {
+        // The previous frame's 3x3 means where it saw a surface (inside its spans), which the
+        // taps read; sized on first use, as most scenes never change their transfer function.
+        eye.previousScalarMean.resize(static_cast<std::size_t>(width) * height);
+        scalarReference = eye.previousScalarMean.data();
+        this->forRows(1, height,
+          [&](int, int y) HV_WIDEST_VECTORS
           {
-            scalarMeansOfSpan(eye.previousSurface, y, span.begin, span.end - span.begin, width,
-              height,
-              eye.previousScalarMean.data() + static_cast<std::size_t>(y) * width + span.begin);
-          }
-        });
+            const RowSpan& span = eye.previousSpan[static_cast<std::size_t>(y)];
+            if (span.begin < span.end)
+            {
+              scalarMeansOfSpan(eye.previousSurface, y, span.begin, span.end - span.begin, width,
+                height,
+                eye.previousScalarMean.data() + static_cast<std::size_t>(y) * width + span.begin);
+            }
+          });
+      }
     }
     const int reach = static_cast<int>(std::ceil(3.0f * p.relightingRadius));
     const cv::Rect region(
@@ -1256,7 +1254,7 @@ struct StereoDenoiser::Internals
           eye.relitPlanes.data() + eye.relitRowOffset[static_cast<std::size_t>(y)];
         temporal::reprojectHistoryRow(eye, y, span.begin, count, width, height, p, historyPlanes);
         float* historyValid = historyPlanes + temporal::HistoryValid * count;
-        if (scalarTolerance < std::numeric_limits<float>::infinity())
+        if (testMaterial)
         {
           // The same material as one of the taps the history was read from, compared as
           // means over the 3x3 pixels that see a surface: each frame's scalar is one sample's
