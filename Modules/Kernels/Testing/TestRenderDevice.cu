@@ -260,7 +260,9 @@ TEST(RenderDevice, WhiteFurnace)
 // pixels on the same paths and all 16384 pixels alike in scattering; CUDA's logf, expf, sinf
 // and cosf round differently again, so the thresholds leave room: 75 % of the ball's pixels
 // on the same paths, fewer than 1 % of the pixels differing in scattering, as many each way,
-// and the means equal within their statistics (both are unbiased estimates of each pixel).
+// and the means equal within their statistics (both are unbiased estimates of each pixel). On
+// an H200 (CUDA 13.0, 2026-11-28) 90.30 % of the ball's pixels followed the host's paths and
+// none differed in scattering.
 TEST(RenderDevice, FollowsTheHostsPaths)
 {
   ColouredScene coloured;
