@@ -329,7 +329,7 @@ struct EyeState
     this->previousSpan.assign(static_cast<std::size_t>(h), RowSpan());
     this->ownSpan.assign(static_cast<std::size_t>(h), RowSpan());
     this->rowStatistics.assign(static_cast<std::size_t>(h), RowStatistics());
-    this->relitPlanes.clear(); // sized on first use: most scenes never relight
+    PlaneVector<float>().swap(this->relitPlanes); // sized on first use: most scenes never relight
     this->relitRowOffset.clear();
     this->previousScalarMean.clear();
     for (SurfacePlanes* surfaces : { &this->surface, &this->previousSurface })
@@ -1165,6 +1165,17 @@ struct StereoDenoiser::Internals
       eye.relitRowOffset[static_cast<std::size_t>(y)] = floats;
       floats +=
         static_cast<std::size_t>(std::max(span.end - span.begin, 0)) * temporal::TemporalPlaneCount;
+    }
+    // Room for spans as wide as the image, reserved once: growing would copy the old contents,
+    // which this frame overwrites, into pages that each cost a fault on one thread (about 100 ms
+    // on the first relit frame at 1440x936). Reserved pages cost nothing until a stage writes
+    // them (PlaneAllocator.h), and the rows are laid out from the block's start, so only as many
+    // are ever mapped as the widest spans have needed.
+    if (floats > eye.relitPlanes.capacity())
+    {
+      PlaneVector<float>().swap(eye.relitPlanes);
+      eye.relitPlanes.reserve(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) *
+        temporal::TemporalPlaneCount);
     }
     eye.relitPlanes.resize(floats);
     // The rows and columns the volume covers, padded by the Gaussian's reach.
