@@ -1128,9 +1128,11 @@ TEST(StereoDenoiser, DeterministicAcrossThreadCounts)
 }
 
 // A change of size, or between stereo and mono, starts over: whatever the earlier frames left in
-// the planes, the denoiser then computes what a new one does, bit for bit. EyeState::resize sizes
-// its planes without writing them and zeroes them on parallelFor's threads (PlaneAllocator), so
-// a plane it missed, or a block the threads skipped, would leave the earlier frames' values.
+// the planes, the denoiser then computes what a new one does, bit for bit. EyeState::resize hands
+// every plane back and takes fresh memory, which PlaneAllocator's calloc returns zeroed without
+// writing it, so a plane it missed would keep the earlier frames' values. Both runs relight the
+// history at a light switch, and the earlier frames relit theirs too, so the relighting's planes
+// (reserved for the image's size on first use) start over as well.
 TEST(StereoDenoiser, SizeChangeStartsOver)
 {
   const auto threeThreads =
@@ -1146,14 +1148,17 @@ TEST(StereoDenoiser, SizeChangeStartsOver)
       thread.join();
     }
   };
-  const auto denoiseFrames = [](StereoDenoiser& denoiser, const hvtest::SceneState& scene,
-                               std::uint32_t first, std::uint32_t last)
+  // The side light switches on at frame `switchAt` (T = 0.5 there: the history is relit).
+  const auto denoiseFrames = [](StereoDenoiser& denoiser, hvtest::SceneState scene,
+                               std::uint32_t first, std::uint32_t last, std::uint32_t switchAt)
   {
     StereoFrame frame;
+    const float light = scene.sideLight;
     for (std::uint32_t t = first; t < last; ++t)
     {
+      scene.sideLight = t >= switchAt ? light : 0.0f;
       frame.render(scene, t);
-      frame.denoise(denoiser);
+      frame.denoise(denoiser, t == switchAt ? 0.5f : 0.0f);
     }
     return frame;
   };
@@ -1166,7 +1171,7 @@ TEST(StereoDenoiser, SizeChangeStartsOver)
     hvtest::SceneState earlier = scene;
     earlier.sideLight = 2.0f;
     earlier.cameraPosition.x = 0.2f;
-    denoiseFrames(used, earlier, 100, 104);
+    denoiseFrames(used, earlier, 100, 104, 102);
     for (int mono = 0; mono < 2; ++mono)
     {
       hvtest::EyeBuffers eye;
@@ -1178,10 +1183,11 @@ TEST(StereoDenoiser, SizeChangeStartsOver)
       ASSERT_TRUE(used.denoise(frames, mono ? 1 : 2, 0.0f, out, error)) << error;
     }
   }
-  const StereoFrame afterChanges = denoiseFrames(used, scene, 0, 3);
+  scene.sideLight = 1.0f;
+  const StereoFrame afterChanges = denoiseFrames(used, scene, 0, 4, 2);
 
   StereoDenoiser fresh;
-  const StereoFrame fromTheStart = denoiseFrames(fresh, scene, 0, 3);
+  const StereoFrame fromTheStart = denoiseFrames(fresh, scene, 0, 4, 2);
   for (int e = 0; e < 2; ++e)
   {
     ASSERT_EQ(afterChanges.outputs[e].size(), fromTheStart.outputs[e].size());
