@@ -1167,10 +1167,11 @@ struct StereoDenoiser::Internals
         static_cast<std::size_t>(std::max(span.end - span.begin, 0)) * temporal::TemporalPlaneCount;
     }
     // Room for spans as wide as the image, reserved once: growing would copy the old contents,
-    // which this frame overwrites, into pages that each cost a fault on one thread (about 100 ms
-    // on the first relit frame at 1440x936). Reserved pages cost nothing until a stage writes
-    // them (PlaneAllocator.h), and the rows are laid out from the block's start, so only as many
-    // are ever mapped as the widest spans have needed.
+    // which this frame overwrites, into pages that each cost a fault on one thread (at 1440x936
+    // a relit frame whose spans reached further than the last took 379-406 ms instead of about
+    // 150). Reserved pages cost nothing until a stage writes them (PlaneAllocator.h), and the
+    // rows are laid out from the block's start, so only as many are ever mapped as the widest
+    // spans have needed.
     if (floats > eye.relitPlanes.capacity())
     {
       PlaneVector<float>().swap(eye.relitPlanes);
