@@ -319,34 +319,20 @@ struct EyeState
   // release() then frees what was allocated.
   void resize(int w, int h)
   {
+    // The state of a new denoiser first; the planes sized on first use (the relighting's, the
+    // scalar test's) stay unallocated until then: most scenes never relight.
+    this->release();
     const std::size_t n = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
     this->width = w;
     this->height = h;
-    this->hasPrevious = false;
-    this->canReplace = false;
-    this->relightingAge = 0;
     this->span.assign(static_cast<std::size_t>(h), RowSpan());
     this->previousSpan.assign(static_cast<std::size_t>(h), RowSpan());
     this->ownSpan.assign(static_cast<std::size_t>(h), RowSpan());
     this->rowStatistics.assign(static_cast<std::size_t>(h), RowStatistics());
-    PlaneVector<float>().swap(this->relitPlanes); // sized on first use: most scenes never relight
-    this->relitRowOffset.clear();
-    this->previousScalarMean.clear();
-    for (SurfacePlanes* surfaces : { &this->surface, &this->previousSurface })
-    {
-      surfaces->scalarAnchor.clear();
-      surfaces->hasScalarAnchor = false;
-      surfaces->hasScalar = false;
-    }
 
     // Every plane allocated afresh, which PlaneAllocator returns zeroed; resize(n) leaves the
     // elements unwritten. Pages that no span reaches are never written, and cost nothing.
-    this->forEachPlane(
-      [n](auto& plane)
-      {
-        std::decay_t<decltype(plane)>().swap(plane);
-        plane.resize(n);
-      });
+    this->forEachPlane([n](auto& plane) { plane.resize(n); });
   }
 
   // Back to the state of a new denoiser, its memory returned.
