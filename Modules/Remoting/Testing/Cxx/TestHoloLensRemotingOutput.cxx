@@ -12,11 +12,16 @@
 // - a grab moving the volume 0.1 m to the right: x_ndc shifts by (f / aspect) · 0.1 / 0.6 =
 //   0.217, the centroid by 0.108 of the width;
 // - a cutting plane through the centre keeping +x: about half the coverage, centroid to the right.
-// Then interaction (illumination model, unknown names), H.264 with the denoiser.
+// Then interaction (illumination model, unknown names), H.264 with the denoiser, and a preset
+// switch that the denoiser drops its history for by default and relights it for on request.
 #include "PathTracingTestScene.h"
 #include "vtkHoloLensRemotingOutput.h"
 #include "vtkStereoSpatioTemporalDenoiser.h"
 
+#include "vtkCallbackCommand.h"
+#include "vtkDataArray.h"
+#include "vtkFieldData.h"
+#include "vtkImageData.h"
 #include "vtkPlaneCollection.h"
 
 #include "hv/remoting/FrameCodec.h"
@@ -25,6 +30,7 @@
 
 #include <cmath>
 #include <iostream>
+#include <vector>
 
 namespace
 {
@@ -344,6 +350,12 @@ int TestHoloLensRemotingOutput(int, char*[])
   vtkNew<vtkStereoSpatioTemporalDenoiser> denoiser;
   vtkNew<vtkHoloLensRemotingOutput> output264;
   Configure(output264, volume264);
+  // A preset that differs from the scene's in its opacity alone, as the application's presets do.
+  vtkNew<vtkVolumeProperty> densePreset;
+  pathtracingtest::ApplyTransferFunction(densePreset);
+  densePreset->SetScalarOpacityUnitDistance(0.25); // twice the extinction
+  output264->AddTransferFunctionPreset("soft", volume264->GetProperty());
+  output264->AddTransferFunctionPreset("dense", densePreset);
   output264->SetCodec(vtkHoloLensRemotingOutput::CODEC_H264);
   output264->SetDenoiser(denoiser);
   output264->SetMaximumStillFrames(3);
@@ -364,6 +376,71 @@ int TestHoloLensRemotingOutput(int, char*[])
   Check(output264->GetLastDenoiseTime() > 0.0, "the denoiser runs on every frame");
   std::cout << "  H.264: " << output264->GetLastH264Bytes() << " bytes, denoise "
             << output264->GetLastDenoiseTime() << " ms\n";
+
+  // A preset switch from the headset: the output swaps the volume's property, which the
+  // denoiser sees as a new transfer function over the same data. By default it drops its
+  // history; with RelightHistoryOnTransferFunctionChange (the application's setting) it keeps
+  // it, relit. Each switch is followed by still frames, so that the history grows again.
+  // Each denoised frame's mean history length and the property it was rendered with, recorded
+  // as the denoiser finishes: the output renders still frames on its own, so that the one the
+  // viewer receives need not be the last the denoiser ran.
+  struct DenoisedFrame
+  {
+    vtkVolumeProperty* property;
+    double meanHistoryLength;
+  };
+  struct Recorder
+  {
+    vtkStereoSpatioTemporalDenoiser* denoiser;
+    vtkVolume* volume;
+    std::vector<DenoisedFrame> frames;
+  } recorder{ denoiser, volume264, {} };
+  vtkNew<vtkCallbackCommand> record;
+  record->SetClientData(&recorder);
+  record->SetCallback(
+    [](vtkObject*, unsigned long, void* clientData, void*)
+    {
+      auto* r = static_cast<Recorder*>(clientData);
+      vtkDataArray* length =
+        r->denoiser->GetEyeOutput(0)->GetFieldData()->GetArray("MeanHistoryLength");
+      r->frames.push_back({ r->volume->GetProperty(), length ? length->GetTuple1(0) : -1.0 });
+    });
+  denoiser->AddObserver(vtkCommand::EndEvent, record);
+  // The mean history length on the first frame rendered with the preset.
+  const auto historyAfterSwitchTo =
+    [&](const char* preset, vtkVolumeProperty* property, std::uint64_t poseId)
+  {
+    recorder.frames.clear();
+    h264Viewer.Send(
+      std::string(R"({"type":"interaction","action":"transfer-function","preset":")") + preset +
+      R"("})");
+    h264Viewer.Send(SerializePose(MakePose(poseId)));
+    const Frame switched = h264Viewer.NextFrame(output264, poseId);
+    Check(switched.valid && switched.header.preset == preset,
+      std::string("the viewer switched to the preset '") + preset + "'");
+    // Still frames, so that the history grows again before the next switch.
+    for (int frame = 0; frame < 3; ++frame)
+    {
+      h264Viewer.NextFrame(output264, poseId);
+    }
+    for (const DenoisedFrame& frame : recorder.frames)
+    {
+      if (frame.property == property)
+      {
+        return frame.meanHistoryLength;
+      }
+    }
+    return -1.0;
+  };
+  vtkVolumeProperty* softPreset = volume264->GetProperty();
+  const double dropped = historyAfterSwitchTo("dense", densePreset, 11);
+  denoiser->RelightHistoryOnTransferFunctionChangeOn();
+  const double relit = historyAfterSwitchTo("soft", softPreset, 12);
+  std::cout << "  mean history length on the frame of a preset switch: " << dropped
+            << " frames dropped, " << relit << " relit\n";
+  Check(dropped >= 0.0 && dropped <= 1.0, "by default a preset switch starts the history over");
+  Check(
+    relit > 1.5, "with RelightHistoryOnTransferFunctionChange a preset switch keeps the history");
   output264->Stop();
   return Failures == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
 }
