@@ -1468,8 +1468,8 @@ TEST(StereoDenoiser, BadInputIsRefused)
   EXPECT_FALSE(denoiser.denoise(frames, 2, 0.0f, out, error));
   EXPECT_NE(error.find("differ in size"), std::string::npos) << error;
 
-  // 2^29 pixels: more than the lookups' 32-bit indices reach (7 floats of history information
-  // a pixel); refused before a buffer is read.
+  // 2^29 pixels: more than the lookups' 32-bit indices reach (4 floats of raw radiance a
+  // pixel); refused before a buffer is read.
   frames[0].width = frames[1].width = 1 << 16;
   frames[0].height = frames[1].height = 1 << 13;
   EXPECT_FALSE(denoiser.denoise(frames, 2, 0.0f, out, error));
