@@ -261,7 +261,7 @@ public:
   // non-finite radiance the outputs hold a copy of it). With replaceLastFrame the
   // call denoises the last frame again (say, after a parameter change) from the history it
   // started with, instead of counting the same samples twice as a new frame. When memory runs
-  // out (the denoiser keeps 91 floats a pixel per eye, about 490 MB an eye at 1440x936), it
+  // out (the denoiser keeps 89 floats a pixel per eye, about 480 MB an eye at 1440x936), it
   // returns false and says how much it needs, and starts over like a new denoiser.
   bool denoise(const EyeFrame* eyes, int eyeCount, float illuminationDifference,
     float* const* outputs, std::string& error, bool replaceLastFrame = false);
