@@ -1147,14 +1147,18 @@ HV_ALWAYS_INLINE inline void lookUpNearestRow(const SurfacePlanes& storedPlanes,
       keptPointZ[k] = storedSurfaces.pointZ[index];
     }
   };
-  if (!findRuns)
+  const auto lookUpGathered = [&](int begin, int end) HV_ALWAYS_INLINE
   {
 #pragma GCC ivdep
-    for (int k = 0; k < count; ++k)
+    for (int k = begin; k < end; ++k)
     {
       // The planes read at an unsigned index (StoredSurfaces).
       lookUp(k, static_cast<std::uint32_t>(nearest[k]));
     }
+  };
+  if (!findRuns)
+  {
+    lookUpGathered(0, count);
     return;
   }
   forConsecutiveRuns(
@@ -1167,14 +1171,7 @@ HV_ALWAYS_INLINE inline void lookUpNearestRow(const SurfacePlanes& storedPlanes,
         lookUp(k, k + shift);
       }
     },
-    [&](int begin, int end) HV_ALWAYS_INLINE
-    {
-#pragma GCC ivdep
-      for (int k = begin; k < end; ++k)
-      {
-        lookUp(k, static_cast<std::uint32_t>(nearest[k]));
-      }
-    });
+    lookUpGathered);
 }
 
 // Subnormal floats (below 1.2e-38) are flushed to zero while the denoiser's loops run on a
