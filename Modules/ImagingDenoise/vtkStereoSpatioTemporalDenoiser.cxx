@@ -423,6 +423,7 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.relitHistoryReuse = static_cast<float>(this->RelitHistoryReuse);
   p.relitHistoryRejection = static_cast<float>(this->RelitHistoryRejection);
   p.classificationScalarTolerance = static_cast<float>(this->ClassificationScalarTolerance);
+  p.classificationCoverageWidth = static_cast<float>(this->ClassificationCoverageWidth);
   p.relightingRefinementFrames = this->RelightingRefinementFrames;
   p.bicubicHistory = this->BicubicHistory;
   p.maximumHistoryAngle = static_cast<float>(this->MaximumHistoryAngle);
@@ -524,6 +525,7 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "RelitHistoryReuse: " << this->RelitHistoryReuse << "\n";
   os << indent << "RelitHistoryRejection: " << this->RelitHistoryRejection << "\n";
   os << indent << "ClassificationScalarTolerance: " << this->ClassificationScalarTolerance << "\n";
+  os << indent << "ClassificationCoverageWidth: " << this->ClassificationCoverageWidth << "\n";
   os << indent << "RelightingRefinementFrames: " << this->RelightingRefinementFrames << "\n";
   os << indent << "BicubicHistory: " << (this->BicubicHistory ? "On" : "Off") << "\n";
   os << indent << "MaximumHistoryAngle: " << this->MaximumHistoryAngle << "\n";

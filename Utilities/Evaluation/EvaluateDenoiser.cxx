@@ -64,6 +64,7 @@ struct Options
   int StratifiedSubpixelSamples = -1; // the mapper's default
   bool RelightOnTransferFunctionChange = false;
   double ClassificationScalarTolerance = -1.0; // the denoiser's default
+  double ClassificationCoverageWidth = -1.0;   // the denoiser's default
   int EditFrames = 1;
   std::string EditTarget = "threshold";
 };
@@ -109,6 +110,10 @@ under the lamp, or with the new transfer function, all along.
                          with the option above, a pixel keeps its history only where the
                          data's scalar at the first scatter points (a 3x3 mean) moved by at
                          most X of its range, 0 to 1; 0: no test [the denoiser's default, 0.1]
+  --classification-coverage-width X
+                         with the option above, a pixel also starts over where its 3x3 mean
+                         coverage moved by more than X standard errors from the history's, 0
+                         to 1000; 0: no test [the denoiser's default, 1.5]
   --wavelet-levels N     a-trous levels of every denoiser's spatial filter, 0 to 10 [the
                          denoiser's default, 4]: its quality against its cost, which
                          holovolume-denoise-benchmark --wavelet-levels N measures
@@ -811,6 +816,9 @@ int main(int argc, char* argv[])
     else if (arg == "--classification-scalar-tolerance")
       options.ClassificationScalarTolerance =
         holovolume::NumberOption(program, "--classification-scalar-tolerance", value(), 0.0, 1.0);
+    else if (arg == "--classification-coverage-width")
+      options.ClassificationCoverageWidth =
+        holovolume::NumberOption(program, "--classification-coverage-width", value(), 0.0, 1000.0);
     else if (arg == "--wavelet-levels")
     {
       vtkNew<vtkStereoSpatioTemporalDenoiser> limits;
@@ -980,12 +988,19 @@ int main(int argc, char* argv[])
     if (options.RelightOnTransferFunctionChange)
     {
       vtkNew<vtkStereoSpatioTemporalDenoiser> defaults;
-      const double tolerance = options.ClassificationScalarTolerance >= 0.0
-        ? options.ClassificationScalarTolerance
-        : defaults->GetClassificationScalarTolerance();
+      // An option's value, or the denoiser's default where it was not given (-1).
+      auto chosen = [](double option, double byDefault)
+      { return option >= 0.0 ? option : byDefault; };
+      const double tolerance =
+        chosen(options.ClassificationScalarTolerance, defaults->GetClassificationScalarTolerance());
+      const double coverageWidth =
+        chosen(options.ClassificationCoverageWidth, defaults->GetClassificationCoverageWidth());
       std::printf("first scatter scalar test: a pixel keeps its history where the scalar moved "
-                  "by at most %.3g of the data's range%s\n",
-        tolerance, tolerance > 0.0 ? "" : " (0: no test)");
+                  "by at most %.3g of the data's range%s\n"
+                  "coverage test: a pixel keeps its history where its 3x3 mean coverage moved by "
+                  "at most %.3g standard errors%s\n",
+        tolerance, tolerance > 0.0 ? "" : " (0: no test)", coverageWidth,
+        coverageWidth > 0.0 ? "" : " (0: no test)");
     }
   }
   if (options.WaveletLevels >= 0)
@@ -1186,6 +1201,10 @@ int main(int argc, char* argv[])
           if (options.ClassificationScalarTolerance >= 0.0)
           {
             run[method]->SetClassificationScalarTolerance(options.ClassificationScalarTolerance);
+          }
+          if (options.ClassificationCoverageWidth >= 0.0)
+          {
+            run[method]->SetClassificationCoverageWidth(options.ClassificationCoverageWidth);
           }
           if (options.WaveletLevels >= 0)
           {
@@ -1527,7 +1546,8 @@ int main(int argc, char* argv[])
     }
     if (edit && options.RelightOnTransferFunctionChange && materialChangedCount > 0)
     {
-      std::printf("\nthe full denoiser's first scatter scalar test dropped the history of %.1f %% "
+      std::printf("\nthe full denoiser's first scatter scalar and coverage tests dropped the "
+                  "history of %.1f %% "
                   "of the pixels that see the volume on the edit's frames (mean over the eyes, "
                   "runs and steps)",
         100.0 * materialChangedSum / materialChangedCount);

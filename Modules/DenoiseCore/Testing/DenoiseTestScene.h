@@ -96,6 +96,10 @@ struct SceneState
   float patchEdge = -1.0f;
   float patchDetail = 0.0f;
   float scalarJitter = 0.04f;
+  // The coverage of the wall's patch (x < patchEdge) in both eyes, as the left eye's
+  // leftEyeCoverage (with which it multiplies): a transfer function that makes tissue more
+  // transparent thins it where it stays, without moving the first scatter points or their scalar.
+  float patchCoverage = 1.0f;
   glm::vec3 cameraPosition{ 0.0f, 0.0f, 8.0f }; // between the eyes, looking at -z
   float interpupillaryDistance = 0.3f;
   float focalDistance = 8.0f;
@@ -150,6 +154,7 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
       // Square first (it is in front), then the wall at z = 0.
       glm::vec3 hit, albedo, radiance;
       float scalar = 0.0f;
+      float coverage = 1.0f; // of the surface hit, before the left eye's leftEyeCoverage
       bool found = false;
       {
         const float t = (scene.squareCentre.z - origin.z) / direction.z;
@@ -184,6 +189,7 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
           if (p.x < scene.patchEdge)
           {
             scalar = scene.patchScalar;
+            coverage = scene.patchCoverage;
             irradiance *=
               1.0f + scene.patchDetail * std::sin(2.0f * glm::pi<float>() * p.x / 0.15f);
           }
@@ -219,11 +225,14 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
         std::uniform_real_distribution<float> jitter(-scene.scalarJitter, scene.scalarJitter);
         out.scalar[i] = scalar + jitter(scalarRng);
       }
-      float coverage = 1.0f, alpha = 1.0f;
-      if (eye == 0 && scene.leftEyeCoverage < 1.0f)
+      float alpha = 1.0f;
+      if (eye == 0)
       {
-        std::bernoulli_distribution scatters(scene.leftEyeCoverage);
-        coverage = scene.leftEyeCoverage;
+        coverage *= scene.leftEyeCoverage;
+      }
+      if (coverage < 1.0f)
+      {
+        std::bernoulli_distribution scatters(coverage);
         alpha = 0.5f * (static_cast<float>(scatters(rng)) + static_cast<float>(scatters(rng)));
       }
       for (int c = 0; c < 3; ++c)

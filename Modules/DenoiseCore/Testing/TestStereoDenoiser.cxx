@@ -585,11 +585,77 @@ TEST(StereoDenoiser, NewTransferFunctionDropsAHistoryThatCannotBeRelit)
 // disocclusion tests pass; only the scalar can tell. With the scalar test those pixels start
 // over while the rest of the wall keeps its history; without it (tolerance 0, or frames
 // without scalars) the patch keeps the old tissue's relit history, which has no stripes.
+// The left eye's wall split at the patch's edge (hvtest::SceneState::patchEdge): the mean
+// history length on the patch (x < patchEdge - inset) and on the rest of the wall (x >=
+// patchEdge + inset), their pixel counts, and the patch's share of the pixels that see a surface.
+struct PatchHistory
+{
+  double patch = 0.0, wall = 0.0, patchFraction = 0.0;
+  std::size_t patchPixels = 0, wallPixels = 0;
+};
+
+PatchHistory patchHistory(const StereoDenoiser& denoiser, const StereoFrame& frame,
+  const hvtest::SceneState& scene, float inset)
+{
+  const hvtest::EyeBuffers& left = frame.eyes[0];
+  PatchHistory h;
+  std::size_t seen = 0;
+  for (std::size_t i = 0; i < left.valid.size(); ++i)
+  {
+    if (!left.valid[i])
+    {
+      continue;
+    }
+    ++seen;
+    const bool onWall = left.position[3 * i + 2] == 0.0f;
+    const float x = left.position[3 * i];
+    const int column = static_cast<int>(i % Width), row = static_cast<int>(i / Width);
+    if (onWall && x < scene.patchEdge - inset)
+    {
+      ++h.patchPixels;
+      h.patch += denoiser.historyLength(0, column, row);
+    }
+    else if (onWall && x >= scene.patchEdge + inset)
+    {
+      ++h.wallPixels;
+      h.wall += denoiser.historyLength(0, column, row);
+    }
+  }
+  h.patch /= static_cast<double>(std::max<std::size_t>(h.patchPixels, 1));
+  h.wall /= static_cast<double>(std::max<std::size_t>(h.wallPixels, 1));
+  h.patchFraction =
+    static_cast<double>(h.patchPixels) / static_cast<double>(std::max<std::size_t>(seen, 1));
+  return h;
+}
+
+// The left eye's relative error on the patch (x < patchEdge - inset) over its first `channels`
+// channels: the sum of absolute errors over the reference's sum.
+double patchError(
+  const StereoFrame& frame, const hvtest::SceneState& scene, float inset, int channels)
+{
+  const hvtest::EyeBuffers& left = frame.eyes[0];
+  double error = 0.0, reference = 0.0;
+  for (std::size_t i = 0; i < left.valid.size(); ++i)
+  {
+    if (left.valid[i] && left.position[3 * i + 2] == 0.0f &&
+      left.position[3 * i] < scene.patchEdge - inset)
+    {
+      for (int c = 0; c < channels; ++c)
+      {
+        error += std::abs(frame.outputs[0][4 * i + c] - left.reference[4 * i + c]);
+        reference += left.reference[4 * i + c];
+      }
+    }
+  }
+  return error / reference;
+}
+
 TEST(StereoDenoiser, NewTransferFunctionDropsTheHistoryWhereTheMaterialChanged)
 {
   struct Outcome
   {
-    double patchHistory = 0.0, wallHistory = 0.0, patchFraction = 0.0, patchError = 0.0;
+    PatchHistory history;
+    double patchError = 0.0;
     double changedFraction[2] = { 0.0, 0.0 };
   };
   // Scalars in no frame, in every frame, or from the change on (the frame before it has none
@@ -629,51 +695,14 @@ TEST(StereoDenoiser, NewTransferFunctionDropsTheHistoryWhereTheMaterialChanged)
       EXPECT_EQ(again[0], frame.outputs[0]);
       EXPECT_EQ(again[1], frame.outputs[1]);
     }
-    const hvtest::EyeBuffers& left = frame.eyes[0];
-    std::size_t seen = 0, patch = 0, wall = 0;
-    for (std::size_t i = 0; i < left.valid.size(); ++i)
-    {
-      if (!left.valid[i])
-      {
-        continue;
-      }
-      ++seen;
-      const bool onWall = left.position[3 * i + 2] == 0.0f;
-      const int x = static_cast<int>(i % Width), y = static_cast<int>(i / Width);
-      if (onWall && left.position[3 * i] < scene.patchEdge)
-      {
-        ++patch;
-        outcome.patchHistory += denoiser.historyLength(0, x, y);
-      }
-      else if (onWall)
-      {
-        ++wall;
-        outcome.wallHistory += denoiser.historyLength(0, x, y);
-      }
-    }
-    EXPECT_GT(patch, 1500u);
-    EXPECT_GT(wall, 3000u);
-    outcome.patchHistory /= static_cast<double>(patch);
-    outcome.wallHistory /= static_cast<double>(wall);
-    outcome.patchFraction = static_cast<double>(patch) / static_cast<double>(seen);
+    outcome.history = patchHistory(denoiser, frame, scene, 0.0f);
+    EXPECT_GT(outcome.history.patchPixels, 1500u);
+    EXPECT_GT(outcome.history.wallPixels, 3000u);
     // The patch's error 8 frames on: a history that started over has averaged 9 frames of the
     // new tissue; the relit one still holds most of the old tissue's (no stripes), and takes
     // in each new frame at 1/17 or less.
     frame.settle(scene, denoiser, 17, 25, 0.0f);
-    double error = 0.0, reference = 0.0;
-    for (std::size_t i = 0; i < left.valid.size(); ++i)
-    {
-      if (left.valid[i] && left.position[3 * i + 2] == 0.0f &&
-        left.position[3 * i] < scene.patchEdge)
-      {
-        for (int c = 0; c < 3; ++c)
-        {
-          error += std::abs(frame.outputs[0][4 * i + c] - left.reference[4 * i + c]);
-          reference += left.reference[4 * i + c];
-        }
-      }
-    }
-    outcome.patchError = error / reference;
+    outcome.patchError = patchError(frame, scene, 0.0f, 3);
     return outcome;
   };
   const Outcome tested = run(0.1f, Scalars::Always);
@@ -684,24 +713,82 @@ TEST(StereoDenoiser, NewTransferFunctionDropsTheHistoryWhereTheMaterialChanged)
     { std::pair<const char*, Outcome>{ "scalar test", tested }, { "tolerance 0", untested },
       { "no scalars", withoutScalars }, { "scalars from the change on", scalarsFromTheChange } })
   {
-    std::cout << name << ": history on the patch " << o.patchHistory << " frames, on the rest of "
-              << "the wall " << o.wallHistory << "; dropped for the material "
+    std::cout << name << ": history on the patch " << o.history.patch << " frames, on the rest of "
+              << "the wall " << o.history.wall << "; dropped for the material "
               << o.changedFraction[0] << " / " << o.changedFraction[1] << " (the patch is "
-              << o.patchFraction << " of the left eye's pixels); the patch's relative error "
+              << o.history.patchFraction
+              << " of the left eye's pixels); the patch's relative error "
               << "8 frames on " << o.patchError << "\n";
   }
   // The patch starts over, in both eyes, and nothing else does: the scalar's own jitter
   // (+-0.04 a frame) stays within the tolerance.
-  EXPECT_LT(tested.patchHistory, 1.01);
-  EXPECT_GT(tested.wallHistory, 12.0);
-  EXPECT_NEAR(tested.changedFraction[0], tested.patchFraction, 0.1 * tested.patchFraction);
-  EXPECT_GT(tested.changedFraction[1], 0.5 * tested.patchFraction);
+  EXPECT_LT(tested.history.patch, 1.01);
+  EXPECT_GT(tested.history.wall, 12.0);
+  EXPECT_NEAR(
+    tested.changedFraction[0], tested.history.patchFraction, 0.1 * tested.history.patchFraction);
+  EXPECT_GT(tested.changedFraction[1], 0.5 * tested.history.patchFraction);
   for (const Outcome& o : { untested, withoutScalars, scalarsFromTheChange })
   {
     EXPECT_EQ(o.changedFraction[0], 0.0);
     EXPECT_EQ(o.changedFraction[1], 0.0);
-    EXPECT_GT(o.patchHistory, 12.0);
+    EXPECT_GT(o.history.patch, 12.0);
   }
+  EXPECT_LT(tested.patchError, 0.8 * untested.patchError);
+}
+
+// A new transfer function that thins the tissue on the wall's left part (its coverage from 1 to
+// 0.3) without moving its first scatter points or their scalar: the disocclusion tests and the
+// scalar test pass, and only the coverage test tells the relit history that it shows more of
+// the tissue than there now is.
+TEST(StereoDenoiser, NewTransferFunctionDropsTheHistoryWhereTheCoverageMoved)
+{
+  struct Outcome
+  {
+    PatchHistory history;
+    double patchError = 0.0, changedFraction = 0.0;
+  };
+  auto run = [](float coverageWidth)
+  {
+    hvtest::SceneState scene;
+    scene.withScalars = true;
+    StereoDenoiser denoiser;
+    denoiser.parameters().classificationCoverageWidth = coverageWidth;
+    StereoFrame frame;
+    frame.settle(scene, denoiser, 0, 16, 0.0f);
+    scene.patchCoverage = 0.3f;
+    denoiser.relightHistoryForNewClassification();
+    frame.render(scene, 16);
+    frame.denoise(denoiser);
+    Outcome outcome;
+    outcome.changedFraction = denoiser.statistics().materialChangedFraction[0];
+    // The patch's inside: a pixel at its edge has wall on one side of its 3x3 means.
+    outcome.history = patchHistory(denoiser, frame, scene, 0.1f);
+    EXPECT_GT(outcome.history.patchPixels, 1000u);
+    EXPECT_GT(outcome.history.wallPixels, 3000u);
+    // The patch's error 8 frames on: a history that started over has averaged 9 frames of the
+    // thinned tissue; the relit one still holds 16 frames of the opaque one.
+    frame.settle(scene, denoiser, 17, 25, 0.0f);
+    outcome.patchError = patchError(frame, scene, 0.1f, 4);
+    return outcome;
+  };
+  const Outcome tested = run(1.5f);
+  const Outcome untested = run(0.0f);
+  for (const auto& [name, o] :
+    { std::pair<const char*, Outcome>{ "coverage test", tested }, { "no test", untested } })
+  {
+    std::cout << name << ": history on the patch " << o.history.patch << " frames, on the rest of "
+              << "the wall " << o.history.wall << "; dropped " << o.changedFraction
+              << " of the left eye's pixels (the patch's inside is " << o.history.patchFraction
+              << " of them); the patch's relative error 8 frames on " << o.patchError << "\n";
+  }
+  // The patch's inside starts over, and the rest of the wall keeps its history: an unchanged
+  // coverage (1 on the wall) passes the test.
+  EXPECT_LT(tested.history.patch, 1.01);
+  EXPECT_GT(tested.history.wall, 12.0);
+  EXPECT_GT(tested.changedFraction, tested.history.patchFraction);
+  EXPECT_LT(tested.changedFraction, 1.3 * tested.history.patchFraction);
+  EXPECT_EQ(untested.changedFraction, 0.0);
+  EXPECT_GT(untested.history.patch, 12.0);
   EXPECT_LT(tested.patchError, 0.8 * untested.patchError);
 }
 

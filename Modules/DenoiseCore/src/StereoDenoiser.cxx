@@ -217,6 +217,8 @@ struct EyeState
   // On the frame of a new transfer function: the previous frame's first scatter scalars, as
   // means over 3x3 pixels (computeRelightingRatio's material test). Sized on first use.
   PlaneVector<float> previousScalarMean;
+  // The previous frame's history's 3x3 mean coverage, for the coverage test.
+  PlaneVector<float> previousCoverageMean;
 
   // This frame becomes the previous one; the buffers it replaces are kept for undoCommit().
   void commit()
@@ -336,6 +338,7 @@ struct EyeState
     this->forEachPlane([](auto& plane) { std::decay_t<decltype(plane)>().swap(plane); });
     PlaneVector<float>().swap(this->relitPlanes);
     PlaneVector<float>().swap(this->previousScalarMean);
+    PlaneVector<float>().swap(this->previousCoverageMean);
     for (SurfacePlanes* surfaces : { &this->surface, &this->previousSurface })
     {
       PlaneVector<float>().swap(surfaces->scalarAnchor);
@@ -404,6 +407,49 @@ HV_ALWAYS_INLINE inline void scalarMeansOfSpan(const SurfacePlanes& surface, int
       seen += w;
     }
     mean[x] = seen > 0.0f ? sum / seen : 0.0f;
+  };
+  forStencilOfSpan<9>(begin, count, width, 1, tapColumn, tapOffset, tapWeight, pixel);
+}
+
+// The coverage test's means (classificationCoverageWidth): `coverage` averaged over each 3x3
+// neighbourhood's pixels inside the image, a pixel that does not see a surface counting 0, for
+// the pixels [begin, begin + count) of row y, into mean[0, count); WithFrames also sums the raw
+// frames behind those nine values into frames[0, count) (pixelFrames, at least 1 a pixel; 1 for
+// a pixel that sees nothing). Products with `valid`, as in scalarMeansOfSpan, so that the loop
+// over the row vectorises.
+template <bool WithFrames>
+HV_ALWAYS_INLINE inline void coverageMeansOfSpan(const float* valid, const float* coverage,
+  const float* pixelFrames, int y, int begin, int count, int width, int height,
+  float* __restrict mean, float* __restrict frames)
+{
+  int tapColumn[9];
+  std::ptrdiff_t tapOffset[9];
+  float tapWeight[9];
+  threeByThreeTaps(y, width, height, tapColumn, tapOffset, tapWeight);
+  const std::size_t row = static_cast<std::size_t>(y) * width + begin;
+  const float* __restrict seen = valid + row;
+  const float* __restrict alpha = coverage + row;
+  const float* __restrict rawFrames = WithFrames ? pixelFrames + row : nullptr;
+  auto pixel = [&](int x, const std::ptrdiff_t(&offset)[9], const float(&weight)[9])
+                 HV_ALWAYS_INLINE
+  {
+    float sum = 0.0f, taps = 0.0f, frameSum = 0.0f;
+    for (int k = 0; k < 9; ++k)
+    {
+      const float w = weight[k];
+      const float v = seen[x + offset[k]];
+      sum += w * v * alpha[x + offset[k]];
+      taps += w;
+      if constexpr (WithFrames)
+      {
+        frameSum += w * (v * glm::max(rawFrames[x + offset[k]], 1.0f) + (1.0f - v));
+      }
+    }
+    mean[x] = sum / taps; // taps >= 1: the centre is inside
+    if constexpr (WithFrames)
+    {
+      frames[x] = frameSum;
+    }
   };
   forStencilOfSpan<9>(begin, count, width, 1, tapColumn, tapOffset, tapWeight, pixel);
 }
@@ -1239,9 +1285,56 @@ struct StereoDenoiser::Internals
   // same weights, so the ratio is that of the two local means; one frame's noise averages out
   // over the Gaussian's footprint (about 4 pi r^2 pixels), and the history's detail, which a
   // new light changes much less than its brightness, is kept.
+  // The coverage test on the frame of a new transfer function (classificationCoverageWidth):
+  // whether the frame's mean coverage over the 3x3 pixels around pixel i (currentMean, from
+  // `frames` raw frames; coverageMeansOfSpan) differs from the previous frame's history's mean
+  // over the 3x3 pixels around the one the reprojected point falls in by more than coverageWidth
+  // standard errors of the frame's mean. Both are plain means over the same offsets, a pixel
+  // that sees no surface counting 0, so that an edge that stayed is blurred alike in both and
+  // only one that moved, or tissue that thinned, differs (compared with the history's own pixel,
+  // the edge's blur alone failed the test: Documentation/Denoising.md, "The coverage test").
+  // Each frame's alpha comes from at least one path (coverageVariance); the variance is pooled
+  // over the nine pixels and floored at one path's worth where the mean is 0 or 1.
+  static bool coverageMovedSinceHistory(
+    const EyeState& eye, std::size_t i, float currentMean, float frames, float coverageWidth)
+  {
+    const int width = eye.width;
+    const int height = eye.height;
+    const int hx =
+      glm::clamp(static_cast<int>(std::floor(eye.reprojectedPixel[0][i])), 0, width - 1);
+    const int hy =
+      glm::clamp(static_cast<int>(std::floor(eye.reprojectedPixel[1][i])), 0, height - 1);
+    const RowSpan& span = eye.previousSpan[static_cast<std::size_t>(hy)];
+    float historyMean = 0.0f;
+    if (hx >= span.begin && hx < span.end)
+    {
+      historyMean = eye.previousCoverageMean[static_cast<std::size_t>(hy) * width + hx];
+    }
+    else
+    {
+      // Beside the previous frame's spans, where previousCoverageMean was not computed.
+      float sum = 0.0f;
+      int taps = 0;
+      for (int y = glm::max(hy - 1, 0); y <= glm::min(hy + 1, height - 1); ++y)
+      {
+        for (int x = glm::max(hx - 1, 0); x <= glm::min(hx + 1, width - 1); ++x)
+        {
+          const std::size_t h = static_cast<std::size_t>(y) * width + x;
+          sum += eye.previousSurface.valid[h] * eye.history.colour[3][h];
+          ++taps;
+        }
+      }
+      historyMean = sum / static_cast<float>(taps);
+    }
+    const float a = clampf(currentMean, 0.0f, 1.0f);
+    const float variance = glm::max(a * (1.0f - a), 1.0f / frames) / frames;
+    return std::abs(currentMean - historyMean) > coverageWidth * std::sqrt(variance);
+  }
+
   // Relights eye's history for this frame. On the frame of a new transfer function
   // (materialTest), pixels whose first scatter scalar differs from all of the history's taps
-  // by more than classificationScalarTolerance drop their history first; returns how many.
+  // by more than classificationScalarTolerance, or whose coverage moved
+  // (coverageMovedSinceHistory), drop their history first; returns how many.
   std::int64_t computeRelightingRatio(EyeState& eye, const DenoiserParameters& p, bool materialTest)
   {
     const int width = eye.width;
@@ -1287,6 +1380,7 @@ struct StereoDenoiser::Internals
     }
     const bool testMaterial = materialTest && eye.surface.hasScalar &&
       eye.previousSurface.hasScalar && p.classificationScalarTolerance > 0.0f;
+    const bool testCoverage = materialTest && p.classificationCoverageWidth > 0.0f;
     const float scalarTolerance = p.classificationScalarTolerance;
     std::atomic<std::int64_t> materialChanged{ 0 };
     // What the taps are compared with: the previous frame's anchors where it was itself the
@@ -1318,6 +1412,25 @@ struct StereoDenoiser::Internals
             }
           });
       }
+    }
+    if (testCoverage)
+    {
+      // The history's side of the coverage test, over the previous frame's spans; sized on
+      // first use, as for the scalar means.
+      eye.previousCoverageMean.resize(static_cast<std::size_t>(width) * height);
+      this->forRows(1, height,
+        [&](int, int y) HV_WIDEST_VECTORS
+        {
+          const RowSpan& span = eye.previousSpan[static_cast<std::size_t>(y)];
+          if (span.begin < span.end)
+          {
+            coverageMeansOfSpan<false>(eye.previousSurface.valid.data(),
+              eye.history.colour[3].data(), nullptr, y, span.begin, span.end - span.begin, width,
+              height,
+              eye.previousCoverageMean.data() + static_cast<std::size_t>(y) * width + span.begin,
+              nullptr);
+          }
+        });
     }
     const int reach = static_cast<int>(std::ceil(3.0f * p.relightingRadius));
     const cv::Rect region(
@@ -1355,7 +1468,7 @@ struct StereoDenoiser::Internals
           eye.relitPlanes.data() + eye.relitRowOffset[static_cast<std::size_t>(y)];
         temporal::reprojectHistoryRow(eye, y, span.begin, count, width, height, p, historyPlanes);
         float* historyValid = historyPlanes + temporal::HistoryValid * count;
-        if (testMaterial)
+        if (testMaterial || testCoverage)
         {
           // The same material as one of the taps the history was read from, compared as
           // means over the 3x3 pixels that see a surface: each frame's scalar is one sample's
@@ -1365,10 +1478,26 @@ struct StereoDenoiser::Internals
           // 7.5 % pixel by pixel; on the switch to the inner tissue 97.5 % and 91.4 %). The
           // smallest difference over the taps, so that a tap across an edge does not count.
           // A kept history carries that tap's anchor on; a new one starts from this frame.
+          // Then the coverage (coverageMovedSinceHistory).
           std::int64_t changed = 0;
           const std::size_t row = static_cast<std::size_t>(y) * width + span.begin;
-          float* anchor = eye.surface.scalarAnchor.data() + row;
-          scalarMeansOfSpan(eye.surface, y, span.begin, count, width, height, anchor);
+          float* anchor = testMaterial ? eye.surface.scalarAnchor.data() + row : nullptr;
+          if (testMaterial)
+          {
+            scalarMeansOfSpan(eye.surface, y, span.begin, count, width, height, anchor);
+          }
+          thread_local std::vector<float> coverageScratch;
+          float* currentCoverage = nullptr;
+          float* currentFrames = nullptr;
+          if (testCoverage)
+          {
+            coverageScratch.resize(2 * static_cast<std::size_t>(count));
+            currentCoverage = coverageScratch.data();
+            currentFrames = currentCoverage + count;
+            coverageMeansOfSpan<true>(eye.surface.valid.data(), eye.fused.channel[3].data(),
+              eye.fusedWeight.data(), y, span.begin, count, width, height, currentCoverage,
+              currentFrames);
+          }
           for (int k = 0; k < count; ++k)
           {
             if (!(historyValid[k] > 0.0f))
@@ -1376,25 +1505,40 @@ struct StereoDenoiser::Internals
               continue;
             }
             const std::size_t i = row + k;
-            const BilinearTaps taps = bilinearTaps(
-              glm::vec2(eye.reprojectedPixel[0][i], eye.reprojectedPixel[1][i]), width, height);
-            const float now = anchor[k];
-            float closest = std::numeric_limits<float>::infinity();
-            float closestAnchor = now;
-            for (int t = 0; t < taps.count; ++t)
+            bool startOver = false;
+            float now = 0.0f;
+            if (testMaterial)
             {
-              const int tap = taps.index[t];
-              const float difference = std::abs(scalarReference[tap] - now);
-              if (eye.previousSurface.valid[tap] > 0.0f && difference < closest)
+              const BilinearTaps taps = bilinearTaps(
+                glm::vec2(eye.reprojectedPixel[0][i], eye.reprojectedPixel[1][i]), width, height);
+              now = anchor[k];
+              float closest = std::numeric_limits<float>::infinity();
+              float closestAnchor = now;
+              for (int t = 0; t < taps.count; ++t)
               {
-                closest = difference;
-                closestAnchor = scalarReference[tap];
+                const int tap = taps.index[t];
+                const float difference = std::abs(scalarReference[tap] - now);
+                if (eye.previousSurface.valid[tap] > 0.0f && difference < closest)
+                {
+                  closest = difference;
+                  closestAnchor = scalarReference[tap];
+                }
               }
+              anchor[k] = closestAnchor;
+              startOver = !(closest <= scalarTolerance);
             }
-            anchor[k] = closestAnchor;
-            if (!(closest <= scalarTolerance))
+            if (testCoverage)
             {
-              anchor[k] = now;
+              startOver = startOver ||
+                coverageMovedSinceHistory(
+                  eye, i, currentCoverage[k], currentFrames[k], p.classificationCoverageWidth);
+            }
+            if (startOver)
+            {
+              if (testMaterial)
+              {
+                anchor[k] = now;
+              }
               // As reprojectHistoryRow leaves a pixel without a history.
               for (int plane = temporal::HistoryValid; plane <= temporal::NormalDifferenceSquare;
                    ++plane)

@@ -144,6 +144,11 @@ class DenoiserPipelineTest(unittest.TestCase):
         denoiser.SetClassificationScalarTolerance(2.0)  # clamped to the data's whole range
         self.assertEqual(denoiser.GetClassificationScalarTolerance(), 1.0)
         denoiser.SetClassificationScalarTolerance(0.1)
+        # ... and where the coverage it shows moved by more than 1.5 standard errors.
+        self.assertAlmostEqual(denoiser.GetClassificationCoverageWidth(), 1.5)
+        denoiser.SetClassificationCoverageWidth(-1.0)  # clamped: 0 switches the test off
+        self.assertEqual(denoiser.GetClassificationCoverageWidth(), 0.0)
+        denoiser.SetClassificationCoverageWidth(1.5)
         self.assertEqual(fields.GetArray("MaterialChangedFraction").GetValue(0), 0.0)
         self.assertIsNotNone(mapper.GetEyeOutput(0).GetPointData()
                              .GetArray("FirstScatterScalar"))
