@@ -1278,13 +1278,6 @@ struct StereoDenoiser::Internals
       });
   }
 
-  // The ratio of the incident light now to that in the history, per colour channel, as
-  // G * (m c) / G * (m h): c the current frame (demodulated, with its cross-view samples), h
-  // the reprojected history, m the pixels that have both, G a Gaussian of
-  // DenoiserParameters::relightingRadius pixels. Both sums run over the same pixels with the
-  // same weights, so the ratio is that of the two local means; one frame's noise averages out
-  // over the Gaussian's footprint (about 4 pi r^2 pixels), and the history's detail, which a
-  // new light changes much less than its brightness, is kept.
   // The coverage test on the frame of a new transfer function (classificationCoverageWidth):
   // whether the frame's mean coverage over the 3x3 pixels around pixel i (currentMean, from
   // `frames` raw frames; coverageMeansOfSpan) differs from the previous frame's history's mean
@@ -1331,6 +1324,13 @@ struct StereoDenoiser::Internals
     return std::abs(currentMean - historyMean) > coverageWidth * std::sqrt(variance);
   }
 
+  // The ratio of the incident light now to that in the history, per colour channel, as
+  // G * (m c) / G * (m h): c the current frame (demodulated, with its cross-view samples), h
+  // the reprojected history, m the pixels that have both, G a Gaussian of
+  // DenoiserParameters::relightingRadius pixels. Both sums run over the same pixels with the
+  // same weights, so the ratio is that of the two local means; one frame's noise averages out
+  // over the Gaussian's footprint (about 4 pi r^2 pixels), and the history's detail, which a
+  // new light changes much less than its brightness, is kept.
   // Relights eye's history for this frame. On the frame of a new transfer function
   // (materialTest), pixels whose first scatter scalar differs from all of the history's taps
   // by more than classificationScalarTolerance, or whose coverage moved
