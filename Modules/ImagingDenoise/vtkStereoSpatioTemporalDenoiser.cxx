@@ -416,6 +416,8 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.wavelet.albedoSigma = static_cast<float>(this->WaveletAlbedoSigma);
   p.wavelet.normalSharpness = static_cast<float>(this->WaveletNormalSharpness);
   p.wavelet.depthSigma = static_cast<float>(this->WaveletDepthSigma);
+  p.wavelet.normalGradientFloor = static_cast<float>(this->WaveletNormalGradientFloor);
+  p.temporal.normalGradientFloor = static_cast<float>(this->HistoryNormalGradientFloor);
   p.sigmoidSteepness = static_cast<float>(this->SigmoidSteepness);
   p.sigmoidCentre = static_cast<float>(this->SigmoidCenter);
   p.maximumHistoryLength = this->MaximumHistoryLength;
@@ -540,6 +542,8 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "WaveletAlbedoSigma: " << this->WaveletAlbedoSigma << "\n";
   os << indent << "WaveletNormalSharpness: " << this->WaveletNormalSharpness << "\n";
   os << indent << "WaveletDepthSigma: " << this->WaveletDepthSigma << "\n";
+  os << indent << "WaveletNormalGradientFloor: " << this->WaveletNormalGradientFloor << "\n";
+  os << indent << "HistoryNormalGradientFloor: " << this->HistoryNormalGradientFloor << "\n";
   os << indent << "WaveletLongHistory: " << this->WaveletLongHistory << "\n";
   os << indent << "StereoAlpha: " << this->StereoAlpha << "\n";
   os << indent << "StereoBeta: " << this->StereoBeta << "\n";

@@ -373,6 +373,24 @@ public:
 
   ///@{
   /**
+   * The normal terms count only the part of the two points' weaker gradient magnitude above a
+   * floor: the wavelet filter's edge-stopping (WaveletNormalGradientFloor) and the zeta of w_v,
+   * the history's weight (HistoryNormalGradientFloor); defaults 0.15 both, 0 counts the whole
+   * magnitude (the default before). Where the gradient is weak, inside translucent tissue above
+   * all, the first scatter point lies at a random depth each frame and the gradient's direction
+   * there is noise. Scaled by the whole magnitude, the wavelet filter's term stopped it between
+   * pixels of the same tissue, which kept their frame's noise as dark and bright specks after
+   * every restart of the history, and the history's term cut histories short. The disocclusion
+   * test compares normals only above NormalTestGradient, for the same reason.
+   */
+  vtkSetClampMacro(WaveletNormalGradientFloor, double, 0.0, 1.0);
+  vtkGetMacro(WaveletNormalGradientFloor, double);
+  vtkSetClampMacro(HistoryNormalGradientFloor, double, 0.0, 1.0);
+  vtkGetMacro(HistoryNormalGradientFloor, double);
+  ///@}
+
+  ///@{
+  /**
    * A pixel whose history holds at least this many frames skips the wavelet filter's last
    * level (default 4, the history length from which the variance that guides the filter is the
    * history's own; 0: every pixel takes every level). A long history needs less spatial
@@ -516,6 +534,8 @@ protected:
   double WaveletAlbedoSigma = 0.2;
   double WaveletNormalSharpness = 32.0;
   double WaveletDepthSigma = 0.01;
+  double WaveletNormalGradientFloor = 0.15;
+  double HistoryNormalGradientFloor = 0.15;
   double WaveletLongHistory = 4.0;
   double StereoAlpha = 0.5;
   double StereoBeta = 2.0;

@@ -61,6 +61,8 @@ struct Options
   int SwitchRuns = 4;
   int WaveletLevels = -1;             // the denoiser's default
   int WaveletLongHistory = -1;        // the denoiser's default
+  double WaveletNormalGradientFloor = -1.0; // the denoiser's default
+  double HistoryNormalGradientFloor = -1.0; // the denoiser's default
   int StratifiedSubpixelSamples = -1; // the mapper's default
   bool RelightOnTransferFunctionChange = false;
   double ClassificationScalarTolerance = -1.0; // the denoiser's default
@@ -121,6 +123,13 @@ under the lamp, or with the new transfer function, all along.
                          frames of history from which a pixel skips the wavelet filter's last
                          level, in every denoiser, 0 to 1000 [the denoiser's default, 4]; 0:
                          every pixel takes every level (holovolume-denoise-benchmark times both)
+  --wavelet-normal-gradient-floor X
+                         the wavelet filter's normal edge-stopping counts the gradient magnitude
+                         above X only, in every denoiser, 0 to 1; 0: all of it [the denoiser's
+                         default, 0.15]
+  --history-normal-gradient-floor X
+                         the same for the normal term of the history's weight (zeta of w_v)
+                         [the denoiser's default, 0.15]
   --subpixel-samples random|stratified
                          where every render's samples enter their pixels (raw frames,
                          references, the raw-spp curve): independent uniform positions, or each
@@ -828,6 +837,12 @@ int main(int argc, char* argv[])
     else if (arg == "--wavelet-long-history")
       options.WaveletLongHistory =
         holovolume::IntegerOption(program, "--wavelet-long-history", value(), 0, 1000);
+    else if (arg == "--wavelet-normal-gradient-floor")
+      options.WaveletNormalGradientFloor =
+        holovolume::NumberOption(program, "--wavelet-normal-gradient-floor", value(), 0.0, 1.0);
+    else if (arg == "--history-normal-gradient-floor")
+      options.HistoryNormalGradientFloor =
+        holovolume::NumberOption(program, "--history-normal-gradient-floor", value(), 0.0, 1.0);
     else if (arg == "--subpixel-samples")
     {
       const std::string choice = value();
@@ -1019,6 +1034,16 @@ int main(int argc, char* argv[])
                   "frames\n",
         options.WaveletLongHistory);
     }
+  }
+  if (options.WaveletNormalGradientFloor >= 0.0)
+  {
+    std::printf("\nevery denoiser's wavelet filter compares normals above a gradient of %.3g\n",
+      options.WaveletNormalGradientFloor);
+  }
+  if (options.HistoryNormalGradientFloor >= 0.0)
+  {
+    std::printf("\nevery denoiser's history weight compares normals above a gradient of %.3g\n",
+      options.HistoryNormalGradientFloor);
   }
 
   // Raw PSNR against the spp, for the equal-quality figure: the static view, an independent
@@ -1213,6 +1238,14 @@ int main(int argc, char* argv[])
           if (options.WaveletLongHistory >= 0)
           {
             run[method]->SetWaveletLongHistory(options.WaveletLongHistory);
+          }
+          if (options.WaveletNormalGradientFloor >= 0.0)
+          {
+            run[method]->SetWaveletNormalGradientFloor(options.WaveletNormalGradientFloor);
+          }
+          if (options.HistoryNormalGradientFloor >= 0.0)
+          {
+            run[method]->SetHistoryNormalGradientFloor(options.HistoryNormalGradientFloor);
           }
         }
       }

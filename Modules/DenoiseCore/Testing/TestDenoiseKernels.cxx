@@ -283,6 +283,39 @@ TEST(DenoiseKernels, BilateralWeightAndDisocclusion)
   EXPECT_FALSE(consistentSurface(wandering, 5.0f, -a.normal, 1.0f, 0.0f, 0.03f, 0.5f, 0.3f));
 }
 
+// The normal term counts the weaker gradient magnitude above the floor only: normals 90
+// degrees apart cost nothing where a gradient is at or below it (inside translucent tissue),
+// and k (g - floor) where it is above (a surface). Floor 0 is the whole gradient.
+TEST(DenoiseKernels, NormalTermCountsTheGradientAboveTheFloor)
+{
+  EXPECT_EQ(normalGradient(0.2f, 0.8f, 0.0f), 0.2f);
+  EXPECT_EQ(normalGradient(0.2f, 0.8f, 0.3f), 0.0f);
+  EXPECT_EQ(normalGradient(0.3f, 0.3f, 0.3f), 0.0f);
+  EXPECT_NEAR(normalGradient(0.8f, 0.9f, 0.3f), 0.5f, 1e-6f);
+  EXPECT_EQ(normalGradient(0.0f, 0.0f, 0.0f), 0.0f);
+
+  EdgeStopping edges{ 0.2f, 32.0f, 0.01f, 0.3f };
+  const glm::vec3 up(0.0f, 0.0f, 1.0f), side(0.0f, 1.0f, 0.0f), albedo(0.5f);
+  auto weight = [&](float gradient, const glm::vec3& tapNormal)
+  {
+    return waveletWeightOfChannels(5.0f, 0.0f, gradient, up, albedo, 1.0f, 1.0f, 5.0f, 0.0f,
+      gradient, tapNormal, albedo, 1.0f, inverseTwoSigmaSquared(edges.albedoSigma), edges);
+  };
+  EXPECT_EQ(weight(0.25f, side), weight(0.25f, up));
+  EXPECT_NEAR(weight(0.8f, side) / weight(0.8f, up), std::exp(-32.0f * 0.5f), 1e-9f);
+  Surface a;
+  a.kind = SurfaceOwn;
+  a.depth = 5.0f;
+  a.normal = up;
+  a.gradientMagnitude = 0.25f;
+  a.albedo = albedo;
+  Surface turned = a;
+  turned.normal = side;
+  EXPECT_NEAR(bilateralWeight(a, turned, edges), 1.0f, 1e-6f);
+  edges.normalGradientFloor = 0.0f;
+  EXPECT_NEAR(bilateralWeight(a, turned, edges), std::exp(-32.0f * 0.25f), 1e-6f);
+}
+
 TEST(DenoiseKernels, DemodulationRoundTripAndClamp)
 {
   const glm::vec4 radiance(0.3f, 0.2f, 0.0f, 0.8f);

@@ -1021,6 +1021,70 @@ TEST(StereoDenoiser, TranslucentMaterialKeepsItsHistory)
   EXPECT_LT(randomDepthWithoutJitter, 9.0);
 }
 
+// Inside translucent tissue the first scatter point's normal is noise, and its gradient
+// magnitude is weak. The wavelet filter's normal term counts only the gradient above its floor
+// (0.15), so such pixels are averaged with their neighbours; scaled by the whole gradient
+// (floor 0) the term stopped the filter between pixels of the same tissue, and a frame without
+// history kept its noise. Where the gradient is strong the normals are a surface's and the term
+// still holds.
+TEST(StereoDenoiser, TranslucentNormalsDoNotStopTheWaveletFilter)
+{
+  auto firstFramePSNR = [](float gradient, float normalGradientFloor)
+  {
+    hvtest::SceneState scene;
+    scene.squareCentre = glm::vec3(0.0f, 0.0f, -100.0f); // behind the wall: out of sight
+    scene.wallNormalJitter = glm::radians(80.0f);
+    scene.wallGradient = gradient;
+    StereoDenoiser denoiser;
+    EXPECT_FLOAT_EQ(denoiser.parameters().wavelet.normalGradientFloor, 0.15f);
+    denoiser.parameters().wavelet.normalGradientFloor = normalGradientFloor;
+    StereoFrame frame;
+    frame.render(scene, 0);
+    EXPECT_TRUE(frame.denoise(denoiser));
+    return meanPSNR(frame);
+  };
+  const double weakFloor = firstFramePSNR(0.12f, 0.15f);
+  const double weakWhole = firstFramePSNR(0.12f, 0.0f);
+  const double strongFloor = firstFramePSNR(0.9f, 0.15f);
+  std::cout << "first frame of a wall with random normals, PSNR dB: gradient 0.12 " << weakFloor
+            << " with the floor, " << weakWhole << " without; gradient 0.9 " << strongFloor
+            << " with it\n";
+  EXPECT_GT(weakFloor, weakWhole + 1.0);
+  // At gradient 0.9 the normals stop the filter with the floor too, and the frame keeps most
+  // of its noise; without any normal term it would be as smooth as at 0.12.
+  EXPECT_LT(strongFloor, weakFloor - 2.0);
+}
+
+// The same for the history's weight: zeta's normal term, scaled by the whole gradient, took
+// the random normals of translucent tissue for a changed surface every frame and cut the
+// history short, though the disocclusion test (normals compared above 0.3 only) kept it.
+TEST(StereoDenoiser, WeakGradientNormalsDoNotShortenTheHistory)
+{
+  auto historyLength = [](float normalGradientFloor)
+  {
+    hvtest::SceneState scene;
+    scene.squareCentre = glm::vec3(0.0f, 0.0f, -100.0f); // behind the wall: out of sight
+    scene.wallNormalJitter = glm::radians(80.0f);
+    scene.wallGradient = 0.12f;
+    StereoDenoiser denoiser;
+    EXPECT_FLOAT_EQ(denoiser.parameters().temporal.normalGradientFloor, 0.15f);
+    denoiser.parameters().temporal.normalGradientFloor = normalGradientFloor;
+    StereoFrame frame;
+    for (std::uint32_t t = 0; t < 20; ++t)
+    {
+      frame.render(scene, t);
+      EXPECT_TRUE(frame.denoise(denoiser));
+    }
+    return denoiser.statistics().meanHistoryLength[0];
+  };
+  const double withFloor = historyLength(0.15f);
+  const double whole = historyLength(0.0f);
+  std::cout << "mean history length after 20 still frames of random normals at gradient 0.12: "
+            << withFloor << " frames with the floor, " << whole << " without\n";
+  EXPECT_GT(withFloor, 18.0);
+  EXPECT_LT(whole, withFloor - 3.0);
+}
+
 // D2 blends the eyes' D1 results: their errors at corresponding pixels agree far better. The
 // paper's D2 (no noise test) and the default (noise test at 3 standard deviations), where
 // the eyes see the same light: all they differ by is noise, which both should average.

@@ -152,6 +152,16 @@ class DenoiserPipelineTest(unittest.TestCase):
         self.assertEqual(fields.GetArray("MaterialChangedFraction").GetValue(0), 0.0)
         self.assertIsNotNone(mapper.GetEyeOutput(0).GetPointData()
                              .GetArray("FirstScatterScalar"))
+        # The wavelet filter and the history's weight compare normals only above a gradient
+        # of 0.15 (translucent tissue's normals are noise below it).
+        self.assertAlmostEqual(denoiser.GetWaveletNormalGradientFloor(), 0.15)
+        self.assertAlmostEqual(denoiser.GetHistoryNormalGradientFloor(), 0.15)
+        denoiser.SetWaveletNormalGradientFloor(2.0)  # clamped to the gradient's range
+        self.assertEqual(denoiser.GetWaveletNormalGradientFloor(), 1.0)
+        denoiser.SetHistoryNormalGradientFloor(-1.0)  # clamped: 0 counts the whole gradient
+        self.assertEqual(denoiser.GetHistoryNormalGradientFloor(), 0.0)
+        denoiser.SetWaveletNormalGradientFloor(0.15)
+        denoiser.SetHistoryNormalGradientFloor(0.15)
         self.assertEqual(denoiser.GetCoverageAgreementWidth(), 2.0)
         denoiser.SetCoverageAgreementWidth(-1.0)  # clamped: 0 filters coverage like colour
         self.assertEqual(denoiser.GetCoverageAgreementWidth(), 0.0)

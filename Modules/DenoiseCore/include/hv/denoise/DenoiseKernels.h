@@ -57,8 +57,11 @@ enum SurfaceKind : std::uint32_t
 struct EdgeStopping
 {
   float albedoSigma = 0.1f;      // exp(-|d albedo|^2 / (2 sigma^2))
-  float normalSharpness = 16.0f; // exp(-k (1 - n.n') min(g, g')): only where a gradient exists
+  float normalSharpness = 16.0f; // exp(-k (1 - n.n') g): only where a gradient exists
   float depthSigma = 0.02f;      // exp(-|dz| / (sigma z)): relative depth difference
+  // g = max(min(g_a, g_b) - normalGradientFloor, 0): the normal term counts only the part of
+  // the weaker gradient magnitude above this floor (normalGradient).
+  float normalGradientFloor = 0.0f;
 };
 
 // How far apart two depths of the same structure may lie by chance: the smaller depth spread
@@ -148,6 +151,27 @@ HV_FUNCTION float clampNonNegativeBits(float v, std::int32_t upperBits)
   return clamped;
 }
 
+// The gradient magnitude that scales the normal term of zeta and of the wavelet filter's
+// edge-stopping: the weaker of the two points' above `floor`. Where the gradient is weak (inside
+// translucent tissue above all) the first scatter point lies at a random depth each frame and
+// the gradient's direction there is noise (the disocclusion test compares normals only above
+// NormalTestGradient for that reason). A normal term scaled by the whole magnitude took that
+// noise for edges: the wavelet filter left such pixels unfiltered, and zeta shortened their
+// histories.
+// The clamp at 0 is an integer maximum of the bits (as in clampNonNegativeBits, without its
+// upper bound), so as not to add a float comparison to the wavelet filter's tap loop.
+HV_FUNCTION float normalGradient(float gradientA, float gradientB, float floor)
+{
+  const float g = glm::min(gradientA, gradientB);
+  const float above = g - floor;
+  std::int32_t bits;
+  std::memcpy(&bits, &above, sizeof(bits));
+  bits = glm::max(bits, 0);
+  float clamped;
+  std::memcpy(&clamped, &bits, sizeof(clamped));
+  return clamped;
+}
+
 // e^-x for x >= 0 (negative x count as 0), to a relative error below 4e-6 on [0, 86] (the
 // float product x log2(e) dominates; the series adds less than 2e-7): 2^-t with t = x log2(e)
 // clamped to [0, 125]. Written out rather than calling expf because the wavelet filter
@@ -173,7 +197,8 @@ HV_FUNCTION float bilateralWeight(const Surface& a, const Surface& b, const Edge
   const glm::vec3 albedoDifference = a.albedo - b.albedo;
   const float albedoTerm = glm::dot(albedoDifference, albedoDifference) /
     (2.0f * e.albedoSigma * e.albedoSigma + 1e-12f);
-  const float gradient = glm::min(a.gradientMagnitude, b.gradientMagnitude);
+  const float gradient =
+    normalGradient(a.gradientMagnitude, b.gradientMagnitude, e.normalGradientFloor);
   const float normalTerm =
     e.normalSharpness * glm::max(0.0f, 1.0f - glm::dot(a.normal, b.normal)) * gradient;
   const float depthTerm = glm::abs(a.depth - b.depth) /
@@ -411,7 +436,7 @@ HV_FUNCTION float waveletWeightOfChannels(float centreDepth, float centreSpread,
   const glm::vec3 albedoDifference = centreAlbedo - tapAlbedo;
   const float albedoTerm =
     glm::dot(albedoDifference, albedoDifference) * inverseTwoAlbedoSigmaSquared;
-  const float gradient = glm::min(centreGradient, tapGradient);
+  const float gradient = normalGradient(centreGradient, tapGradient, e.normalGradientFloor);
   const float normalTerm =
     e.normalSharpness * glm::max(0.0f, 1.0f - glm::dot(centreNormal, tapNormal)) * gradient;
   // fabsf, not glm::abs: GCC vectorises glm::abs's comparison as a compare, an xor and a masked
