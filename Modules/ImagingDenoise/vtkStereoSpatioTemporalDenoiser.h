@@ -173,9 +173,10 @@ public:
 
   ///@{
   /**
-   * zeta, the bilateral weight of the cross-view samples and of w_v:
+   * zeta, the bilateral weight of the cross-view samples:
    * exp(-|d albedo|^2 / (2 AlbedoSigma^2) - NormalSharpness (1 - n.n') min(g, g')
-   * - |dz| / (DepthSigma z)). Defaults 0.1, 16, 0.02.
+   * - |dz| / (DepthSigma z)). Defaults 0.1, 16, 0.02. The zeta of w_v is looser (fixed in the
+   * core; its normal term counts the gradient above HistoryNormalGradientFloor).
    */
   vtkSetClampMacro(AlbedoSigma, double, 1e-4, 10.0);
   vtkGetMacro(AlbedoSigma, double);

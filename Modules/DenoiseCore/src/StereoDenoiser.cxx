@@ -1305,19 +1305,11 @@ struct StereoDenoiser::Internals
     }
     else
     {
-      // Beside the previous frame's spans, where previousCoverageMean was not computed.
-      float sum = 0.0f;
-      int taps = 0;
-      for (int y = glm::max(hy - 1, 0); y <= glm::min(hy + 1, height - 1); ++y)
-      {
-        for (int x = glm::max(hx - 1, 0); x <= glm::min(hx + 1, width - 1); ++x)
-        {
-          const std::size_t h = static_cast<std::size_t>(y) * width + x;
-          sum += eye.previousSurface.valid[h] * eye.history.colour[3][h];
-          ++taps;
-        }
-      }
-      historyMean = sum / static_cast<float>(taps);
+      // Beside the previous frame's spans, where previousCoverageMean was not computed (its 3x3
+      // pixels may still reach into a span of the rows above or below): the same mean, for this
+      // one pixel.
+      coverageMeansOfSpan<false>(eye.previousSurface.valid.data(), eye.history.colour[3].data(),
+        nullptr, hy, hx, 1, width, height, &historyMean, nullptr);
     }
     const float a = clampf(currentMean, 0.0f, 1.0f);
     const float variance = glm::max(a * (1.0f - a), 1.0f / frames) / frames;
