@@ -418,6 +418,7 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.wavelet.depthSigma = static_cast<float>(this->WaveletDepthSigma);
   p.wavelet.normalGradientFloor = static_cast<float>(this->WaveletNormalGradientFloor);
   p.temporal.normalGradientFloor = static_cast<float>(this->HistoryNormalGradientFloor);
+  p.wavelet.albedoGradientWeight = static_cast<float>(this->WaveletAlbedoGradientWeight);
   p.sigmoidSteepness = static_cast<float>(this->SigmoidSteepness);
   p.sigmoidCentre = static_cast<float>(this->SigmoidCenter);
   p.maximumHistoryLength = this->MaximumHistoryLength;
@@ -438,6 +439,7 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.waveletLevels = this->WaveletLevels;
   p.luminanceSigma = static_cast<float>(this->LuminanceSigma);
   p.waveletLongHistory = static_cast<float>(this->WaveletLongHistory);
+  p.waveletDepthFromHistory = this->WaveletDepthFromHistory;
   p.stereoAlpha = static_cast<float>(this->StereoAlpha);
   p.stereoBeta = static_cast<float>(this->StereoBeta);
   p.stereoAgreementWidth = static_cast<float>(this->StereoAgreementWidth);
@@ -544,7 +546,10 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "WaveletDepthSigma: " << this->WaveletDepthSigma << "\n";
   os << indent << "WaveletNormalGradientFloor: " << this->WaveletNormalGradientFloor << "\n";
   os << indent << "HistoryNormalGradientFloor: " << this->HistoryNormalGradientFloor << "\n";
+  os << indent << "WaveletAlbedoGradientWeight: " << this->WaveletAlbedoGradientWeight << "\n";
   os << indent << "WaveletLongHistory: " << this->WaveletLongHistory << "\n";
+  os << indent << "WaveletDepthFromHistory: " << (this->WaveletDepthFromHistory ? "On" : "Off")
+     << "\n";
   os << indent << "StereoAlpha: " << this->StereoAlpha << "\n";
   os << indent << "StereoBeta: " << this->StereoBeta << "\n";
   os << indent << "StereoAgreementWidth: " << this->StereoAgreementWidth << "\n";

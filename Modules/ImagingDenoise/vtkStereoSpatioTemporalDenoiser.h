@@ -392,6 +392,20 @@ public:
 
   ///@{
   /**
+   * The wavelet filter's albedo term is scaled by 1 - w + w max(g, g'), g and g' the two
+   * points' gradient magnitudes, w this weight (default 1; 0 counts the albedo everywhere, the
+   * default before). Inside translucent tissue the first scatter point lies at a random depth,
+   * and its albedo is a random sample of the colours along the ray, another each frame; on a
+   * surface (a strong gradient) it is the surface's. With the whole term such pixels were not
+   * averaged with their neighbours on the frames after a restart of their history. Albedo
+   * edges are kept by the demodulation too: the filter runs on radiance divided by the albedo.
+   */
+  vtkSetClampMacro(WaveletAlbedoGradientWeight, double, 0.0, 1.0);
+  vtkGetMacro(WaveletAlbedoGradientWeight, double);
+  ///@}
+
+  ///@{
+  /**
    * A pixel whose history holds at least this many frames skips the wavelet filter's last
    * level (default 4, the history length from which the variance that guides the filter is the
    * history's own; 0: every pixel takes every level). A long history needs less spatial
@@ -399,6 +413,22 @@ public:
    */
   vtkSetClampMacro(WaveletLongHistory, double, 0.0, 1e6);
   vtkGetMacro(WaveletLongHistory, double);
+  ///@}
+
+  ///@{
+  /**
+   * The wavelet filter's depth edge-stopping compares the history's mean first scatter depth,
+   * carried into the frame's view, instead of the frame's own (default on). Inside translucent
+   * tissue the first scatter point lies at a random depth every frame, and that noise stopped
+   * the filter between pixels of the same tissue; the mean over N frames holds 1/sqrt(N) of
+   * it. A pixel whose history starts over, and every pixel with TemporalAccumulation off, uses
+   * the frame's depth; on the frame of a new transfer function the mean starts over too, relit
+   * history or not (the depth is the classification's). The disocclusion tests and the
+   * cross-view weights keep the frame's depth.
+   */
+  vtkSetMacro(WaveletDepthFromHistory, bool);
+  vtkGetMacro(WaveletDepthFromHistory, bool);
+  vtkBooleanMacro(WaveletDepthFromHistory, bool);
   ///@}
 
   ///@{
@@ -537,7 +567,9 @@ protected:
   double WaveletDepthSigma = 0.01;
   double WaveletNormalGradientFloor = 0.15;
   double HistoryNormalGradientFloor = 0.15;
+  double WaveletAlbedoGradientWeight = 1.0;
   double WaveletLongHistory = 4.0;
+  bool WaveletDepthFromHistory = true;
   double StereoAlpha = 0.5;
   double StereoBeta = 2.0;
   double StereoAgreementWidth = 3.0;

@@ -63,6 +63,8 @@ struct Options
   int WaveletLongHistory = -1;        // the denoiser's default
   double WaveletNormalGradientFloor = -1.0; // the denoiser's default
   double HistoryNormalGradientFloor = -1.0; // the denoiser's default
+  int WaveletDepthFromHistory = -1;         // the denoiser's default
+  double WaveletAlbedoGradientWeight = -1.0; // the denoiser's default
   int StratifiedSubpixelSamples = -1; // the mapper's default
   bool RelightOnTransferFunctionChange = false;
   double ClassificationScalarTolerance = -1.0; // the denoiser's default
@@ -130,6 +132,14 @@ under the lamp, or with the new transfer function, all along.
   --history-normal-gradient-floor X
                          the same for the normal term of the history's weight (zeta of w_v)
                          [the denoiser's default, 0.15]
+  --wavelet-depth-from-history 0|1
+                         1: the wavelet filter's depth edge-stopping compares the history's mean
+                         first scatter depth; 0: the frame's own, in every denoiser [the
+                         denoiser's default, 1]
+  --wavelet-albedo-gradient-weight W
+                         the wavelet filter's albedo edge-stopping is scaled by 1 - W + W
+                         max(g, g'), g and g' the gradient magnitudes, in every denoiser, 0 to
+                         1; 0: the whole term everywhere [the denoiser's default, 1]
   --subpixel-samples random|stratified
                          where every render's samples enter their pixels (raw frames,
                          references, the raw-spp curve): independent uniform positions, or each
@@ -843,6 +853,12 @@ int main(int argc, char* argv[])
     else if (arg == "--history-normal-gradient-floor")
       options.HistoryNormalGradientFloor =
         holovolume::NumberOption(program, "--history-normal-gradient-floor", value(), 0.0, 1.0);
+    else if (arg == "--wavelet-albedo-gradient-weight")
+      options.WaveletAlbedoGradientWeight =
+        holovolume::NumberOption(program, "--wavelet-albedo-gradient-weight", value(), 0.0, 1.0);
+    else if (arg == "--wavelet-depth-from-history")
+      options.WaveletDepthFromHistory =
+        holovolume::IntegerOption(program, "--wavelet-depth-from-history", value(), 0, 1);
     else if (arg == "--subpixel-samples")
     {
       const std::string choice = value();
@@ -1045,6 +1061,17 @@ int main(int argc, char* argv[])
     std::printf("\nevery denoiser's history weight compares normals above a gradient of %.3g\n",
       options.HistoryNormalGradientFloor);
   }
+  if (options.WaveletAlbedoGradientWeight >= 0.0)
+  {
+    std::printf("\nevery denoiser's wavelet filter scales its albedo term by %.3g of the larger "
+                "gradient magnitude\n",
+      options.WaveletAlbedoGradientWeight);
+  }
+  if (options.WaveletDepthFromHistory >= 0)
+  {
+    std::printf("\nevery denoiser's wavelet filter compares %s first scatter depths\n",
+      options.WaveletDepthFromHistory ? "the history's mean" : "the frame's own");
+  }
 
   // Raw PSNR against the spp, for the equal-quality figure: the static view, an independent
   // sample set, against a reference of 4x the per-frame reference's samples.
@@ -1246,6 +1273,14 @@ int main(int argc, char* argv[])
           if (options.HistoryNormalGradientFloor >= 0.0)
           {
             run[method]->SetHistoryNormalGradientFloor(options.HistoryNormalGradientFloor);
+          }
+          if (options.WaveletAlbedoGradientWeight >= 0.0)
+          {
+            run[method]->SetWaveletAlbedoGradientWeight(options.WaveletAlbedoGradientWeight);
+          }
+          if (options.WaveletDepthFromHistory >= 0)
+          {
+            run[method]->SetWaveletDepthFromHistory(options.WaveletDepthFromHistory != 0);
           }
         }
       }

@@ -72,6 +72,11 @@ struct SceneState
   float wallDepthJitter = 0.0f;
   float wallNormalJitter = 0.0f;
   float wallGradient = 1.0f;
+  // The first scatter point's albedo is the wall's times 1 + wallAlbedoJitter u, u uniform in
+  // [-1, 1], anew every frame, as tissue of other colours along the ray gives a translucent
+  // volume's; the sample's radiance scales with it (lighter tissue returns more light), so the
+  // expected radiance, the reference, does not change. The wall's gradient is wallGradient.
+  float wallAlbedoJitter = 0.0f;
   // View-dependent light: the left eye sees every point (1 - eyeRadianceDifference / 2) times,
   // the right eye (1 + eyeRadianceDifference / 2) times its radiance, references included, as
   // a specular lobe or the phase function makes the eyes see a point differently.
@@ -203,9 +208,11 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
       }
       radiance *= scene.irradianceScale + scene.sideLight * (0.5f + hit.x / 6.0f);
       radiance *= 1.0f + (eye == 0 ? -0.5f : 0.5f) * scene.eyeRadianceDifference;
+      const glm::vec3 expectedRadiance = radiance;
       glm::vec3 normal(0.0f, 0.0f, 1.0f);
       float gradient = 1.0f;
-      if (hit.z == 0.0f && (scene.wallDepthJitter > 0.0f || scene.wallNormalJitter > 0.0f))
+      const bool onWall = hit.z == 0.0f;
+      if (onWall && (scene.wallDepthJitter > 0.0f || scene.wallNormalJitter > 0.0f))
       {
         std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
         hit += scene.wallDepthJitter * uniform(rng) * direction;
@@ -213,6 +220,14 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
         const float azimuth = glm::pi<float>() * uniform(rng);
         normal = glm::vec3(
           std::sin(tilt) * std::cos(azimuth), std::sin(tilt) * std::sin(azimuth), std::cos(tilt));
+        gradient = scene.wallGradient;
+      }
+      if (onWall && scene.wallAlbedoJitter > 0.0f)
+      {
+        std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+        const float lighter = 1.0f + scene.wallAlbedoJitter * uniform(rng);
+        albedo *= lighter;
+        radiance *= lighter;
         gradient = scene.wallGradient;
       }
       out.valid[i] = 1;
@@ -239,7 +254,7 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
       {
         out.position[3 * i + c] = hit[c];
         out.albedo[3 * i + c] = albedo[c];
-        out.reference[4 * i + c] = radiance[c] * coverage;
+        out.reference[4 * i + c] = expectedRadiance[c] * coverage;
         out.radiance[4 * i + c] = radiance[c] * noise * alpha;
       }
       out.reference[4 * i + 3] = coverage;

@@ -316,6 +316,30 @@ TEST(DenoiseKernels, NormalTermCountsTheGradientAboveTheFloor)
   EXPECT_NEAR(bilateralWeight(a, turned, edges), std::exp(-32.0f * 0.25f), 1e-6f);
 }
 
+// The wavelet filter's albedo term scaled by 1 - w + w max(g, g'): exactly 1 for w = 0 and
+// exactly the larger gradient for w = 1, and the weight follows.
+TEST(DenoiseKernels, AlbedoTermScalesWithTheLargerGradient)
+{
+  EXPECT_EQ(albedoGradientScale(0.2f, 0.7f, 0.0f), 1.0f);
+  EXPECT_EQ(albedoGradientScale(0.2f, 0.7f, 1.0f), 0.7f);
+  EXPECT_EQ(albedoGradientScale(0.7f, 0.2f, 1.0f), 0.7f);
+  EXPECT_EQ(albedoGradientScale(0.0f, 0.0f, 1.0f), 0.0f);
+  EXPECT_NEAR(albedoGradientScale(0.1f, 0.3f, 0.5f), 0.65f, 1e-6f);
+
+  EdgeStopping edges{ 0.2f, 32.0f, 0.01f, 0.15f, 1.0f };
+  const glm::vec3 up(0.0f, 0.0f, 1.0f), grey(0.5f), lighter(0.7f);
+  auto weight = [&](float centreGradient, float tapGradient)
+  {
+    return waveletWeightOfChannels(5.0f, 0.0f, centreGradient, up, grey, 1.0f, 1.0f, 5.0f, 0.0f,
+      tapGradient, up, lighter, 1.0f, inverseTwoSigmaSquared(edges.albedoSigma), edges);
+  };
+  // |d albedo|^2 / (2 sigma^2) = 3 (0.2)^2 / 0.08 = 1.5, times the larger gradient.
+  EXPECT_NEAR(weight(0.1f, 0.2f), std::exp(-1.5f * 0.2f), 1e-5f);
+  EXPECT_NEAR(weight(0.9f, 0.2f), std::exp(-1.5f * 0.9f), 1e-5f);
+  edges.albedoGradientWeight = 0.0f;
+  EXPECT_NEAR(weight(0.1f, 0.2f), std::exp(-1.5f), 1e-5f);
+}
+
 TEST(DenoiseKernels, DemodulationRoundTripAndClamp)
 {
   const glm::vec4 radiance(0.3f, 0.2f, 0.0f, 0.8f);

@@ -2550,6 +2550,12 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       const float clampWidth = p.clampWidth;
       const float coverageAgreementWidth = p.coverageAgreementWidth;
       const float surfaceJitterTolerance = p.surfaceJitterTolerance;
+      // The first scatter depth belongs to the transfer function: on the frame of a new one
+      // the mean depth starts over at the frame's, though the history is relit (it guides the
+      // wavelet filter and places D2's point, and the old classification's depth misplaced
+      // both). As products with 1 and 0 (exact for finite depths), not a choice on the flag.
+      const float depthMeanRestart = newClassification ? 1.0f : 0.0f;
+      const float depthMeanKeep = 1.0f - depthMeanRestart;
       const auto blendRow = [&](auto relit, auto exponentialAverage) HV_ALWAYS_INLINE
       {
         constexpr bool Relit = decltype(relit)::value;
@@ -2661,7 +2667,9 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
             infoNormalDifferenceSquareMean =
               glm::mix(previousNormalDifferenceSquareMean, historyNormalDifferenceSquare, alpha);
             // The mean depth moves with the view as the current point does between the views.
-            infoDepthMean = glm::mix(previousDepthMean + (depth - historyDepth), depth, alpha);
+            infoDepthMean =
+              depthMeanKeep * glm::mix(previousDepthMean + (depth - historyDepth), depth, alpha) +
+              depthMeanRestart * depth;
           }
           // Variance of one raw frame's luminance: temporal once four frames exist (SVGF), the
           // neighbourhood's before; the filtered value averages sampleCount such frames.
@@ -2790,6 +2798,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
   // pixel with a long history skips the last level (the widest, a quarter of the filter's
   // time), and only pixels that start over, or have just started, take every level.
   const float longHistory = p.temporalAccumulation ? p.waveletLongHistory : 0.0f;
+  const bool depthFromHistory = p.temporalAccumulation && p.waveletDepthFromHistory;
   for (int level = 0; level < levels; ++level)
   {
     const int step = 1 << level;
@@ -2804,7 +2813,8 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
         {
           filterWaveletRow(eye.surface, eye.filtered[source], eye.variance[source],
             eye.filtered[target], eye.variance[target], width, height, y, runBegin, runEnd, step,
-            p.luminanceSigma, p.wavelet);
+            p.luminanceSigma, p.wavelet,
+            depthFromHistory ? eye.nextHistory.depthMean.data() : eye.surface.depth.data());
         };
         if (!adaptive)
         {

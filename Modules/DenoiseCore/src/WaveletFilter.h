@@ -23,12 +23,14 @@ namespace detail
 // the variance-guided luminance term (SVGF Eq. 5), whose scale comes from the 3x3-blurred
 // variance. One loop over the span takes each pixel's nine taps, reading every plane at
 // consecutive pixels, so the compiler turns it into vector code.
+// `depthGuide` is the plane the depth edge-stopping compares (the frame's first scatter depth,
+// or the history's mean of it); the guide's depth spread stays the frame's.
 // Each call writes the row's pixels of `out` and `outVariance` from those of `in` and
 // `inVariance` around them; the rows of a level may therefore run in any order and in parallel.
 void filterWaveletRow(const SurfacePlanes& guide, const ColourPlanes& in,
   const PlaneVector<float>& inVariance, ColourPlanes& out, PlaneVector<float>& outVariance,
   int width, int height, int y, int begin, int end, int step, float luminanceSigma,
-  const EdgeStopping edges);
+  const EdgeStopping edges, const float* depthGuide);
 }
 }
 }

@@ -96,6 +96,35 @@ class DenoiserPipelineTest(unittest.TestCase):
             self.assertEqual(every, radiance_values(denoisers["every"], eye))
             self.assertNotEqual(skips, every)
 
+    def test_wavelet_depth_from_history(self):
+        """WaveletDepthFromHistory reaches the kernels: on a first frame a pixel's mean first
+        scatter depth is the frame's own, and both settings give the same values; from the
+        second frame on the translucent sphere's random depths and their mean differ, and so
+        do the results."""
+        mapper, volume = sphere_scene()
+        left, right = eye_matrices(-1.0), eye_matrices(1.0)
+        self.assertTrue(holovolume.vtkStereoSpatioTemporalDenoiser()
+                        .GetWaveletDepthFromHistory())
+        denoisers = []
+        for depth_from_history in (True, False):
+            denoiser = holovolume.vtkStereoSpatioTemporalDenoiser()
+            denoiser.SetIlluminationDifference(0.0)
+            denoiser.SetWaveletDepthFromHistory(depth_from_history)
+            denoisers.append(denoiser)
+        for frame in range(2):
+            self.assertEqual(mapper.RenderStereoFrame(volume, left[0], left[1], right[0],
+                                                      right[1], 40, 40), 1)
+            for denoiser in denoisers:
+                denoiser.SetLeftEyeData(mapper.GetEyeOutput(0))
+                denoiser.SetRightEyeData(mapper.GetEyeOutput(1))
+                denoiser.Update()
+            for eye in (0, 1):
+                mean, own = (radiance_values(d, eye) for d in denoisers)
+                if frame == 0:
+                    self.assertEqual(mean, own)
+                else:
+                    self.assertNotEqual(mean, own)
+
     def test_mapper_eyes_through_the_denoiser(self):
         mapper, volume = sphere_scene()
         left, right = eye_matrices(-1.0), eye_matrices(1.0)
@@ -162,6 +191,13 @@ class DenoiserPipelineTest(unittest.TestCase):
         self.assertEqual(denoiser.GetHistoryNormalGradientFloor(), 0.0)
         denoiser.SetWaveletNormalGradientFloor(0.15)
         denoiser.SetHistoryNormalGradientFloor(0.15)
+        # ... and count the albedo in proportion to the larger gradient magnitude.
+        self.assertEqual(denoiser.GetWaveletAlbedoGradientWeight(), 1.0)
+        denoiser.SetWaveletAlbedoGradientWeight(1.5)  # clamped: 1 is the whole scaling
+        self.assertEqual(denoiser.GetWaveletAlbedoGradientWeight(), 1.0)
+        denoiser.SetWaveletAlbedoGradientWeight(-1.0)  # clamped: 0 counts the whole term
+        self.assertEqual(denoiser.GetWaveletAlbedoGradientWeight(), 0.0)
+        denoiser.SetWaveletAlbedoGradientWeight(1.0)
         self.assertEqual(denoiser.GetCoverageAgreementWidth(), 2.0)
         denoiser.SetCoverageAgreementWidth(-1.0)  # clamped: 0 filters coverage like colour
         self.assertEqual(denoiser.GetCoverageAgreementWidth(), 0.0)

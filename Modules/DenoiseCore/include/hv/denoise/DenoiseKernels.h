@@ -62,6 +62,10 @@ struct EdgeStopping
   // g = max(min(g_a, g_b) - normalGradientFloor, 0): the normal term counts only the part of
   // the weaker gradient magnitude above this floor (normalGradient).
   float normalGradientFloor = 0.0f;
+  // The albedo term is scaled by 1 - w + w max(g_a, g_b) (albedoGradientScale): with w = 1 it
+  // counts in proportion to the larger gradient magnitude, fully where either point sits on a
+  // surface and little where both scatter inside tissue. Only the wavelet filter reads it.
+  float albedoGradientWeight = 0.0f;
 };
 
 // How far apart two depths of the same structure may lie by chance: the smaller depth spread
@@ -170,6 +174,24 @@ HV_FUNCTION float normalGradient(float gradientA, float gradientB, float floor)
   float clamped;
   std::memcpy(&clamped, &bits, sizeof(clamped));
   return clamped;
+}
+
+// 1 - w + w max(g_a, g_b) for gradient magnitudes >= 0, the wavelet filter's scale of its albedo
+// term (EdgeStopping::albedoGradientWeight). Inside translucent tissue the first scatter point
+// lies at a random depth, and its albedo is a random sample of the colours of the tissue along
+// the ray, different each frame and pixel; where either point sits on a surface (a strong
+// gradient makes the scatter point deterministic) its albedo is the surface's. The maximum of
+// two non-negative floats as the maximum of their bits, for the reason clampNonNegativeBits
+// gives; w = 0 gives exactly 1 and w = 1 exactly the maximum.
+HV_FUNCTION float albedoGradientScale(float gradientA, float gradientB, float weight)
+{
+  std::int32_t bitsA, bitsB;
+  std::memcpy(&bitsA, &gradientA, sizeof(bitsA));
+  std::memcpy(&bitsB, &gradientB, sizeof(bitsB));
+  const std::int32_t larger = glm::max(bitsA, bitsB);
+  float gradient;
+  std::memcpy(&gradient, &larger, sizeof(gradient));
+  return (1.0f - weight) + weight * gradient;
 }
 
 // e^-x for x >= 0 (negative x count as 0), to a relative error below 4e-6 on [0, 86] (the
@@ -434,8 +456,9 @@ HV_FUNCTION float waveletWeightOfChannels(float centreDepth, float centreSpread,
   float inverseTwoAlbedoSigmaSquared, const EdgeStopping& e, float coverageTerm = 0.0f)
 {
   const glm::vec3 albedoDifference = centreAlbedo - tapAlbedo;
-  const float albedoTerm =
-    glm::dot(albedoDifference, albedoDifference) * inverseTwoAlbedoSigmaSquared;
+  const float albedoTerm = glm::dot(albedoDifference, albedoDifference) *
+    inverseTwoAlbedoSigmaSquared *
+    albedoGradientScale(centreGradient, tapGradient, e.albedoGradientWeight);
   const float gradient = normalGradient(centreGradient, tapGradient, e.normalGradientFloor);
   const float normalTerm =
     e.normalSharpness * glm::max(0.0f, 1.0f - glm::dot(centreNormal, tapNormal)) * gradient;

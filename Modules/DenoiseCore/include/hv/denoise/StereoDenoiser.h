@@ -80,8 +80,12 @@ struct DenoiserParameters
   EdgeStopping temporal{ 0.5f, 4.0f, 1.0f, 0.15f };
   // The wavelet filter's edge-stopping functions; its normal term too counts the gradient above
   // 0.15 only: scaled by the whole gradient it left pixels of translucent tissue unfiltered,
-  // which kept their frame's noise as specks after every restart of the history.
-  EdgeStopping wavelet{ 0.2f, 32.0f, 0.01f, 0.15f };
+  // which kept their frame's noise as specks after every restart of the history. Its albedo
+  // term counts in proportion to the larger gradient magnitude (albedoGradientWeight 1): inside
+  // translucent tissue the first scatter point's albedo is as random as its depth (head MRI at
+  // 96x62, the translucent preset's frame after it is chosen: 25.73 -> 26.28 dB; the opaque
+  // preset's sequences within 0.02 dB).
+  EdgeStopping wavelet{ 0.2f, 32.0f, 0.01f, 0.15f, 1.0f };
 
   // w_v = delta(1 / (T - 1)) zeta with delta(u) = 1 / (1 + exp(-steepness (u - centre))).
   // The defaults keep delta > 0.99 for T < 0.03 (sensor noise measured 0.014: 0.996), give
@@ -177,6 +181,15 @@ struct DenoiserParameters
   // lost 1 % of its equal-quality spp at 96x62, 3 % at 288x186 and 5 % at 720x468, the orbit
   // none, for 2.1-3.4 ms less per 1440x936 stereo pair (holovolume-denoise-benchmark).
   float waveletLongHistory = 4.0f;
+  // The wavelet filter's depth edge-stopping compares the history's mean first scatter depth
+  // (carried into this frame's view), not the frame's own. Inside translucent tissue the first
+  // scatter point lies at a random depth every frame, and that depth's noise stopped the filter
+  // between pixels of the same tissue; the mean over N frames has 1/sqrt(N) of it. A pixel that
+  // starts over has its frame's depth as its mean, and so does every pixel on the frame of a
+  // new transfer function (relit or not: the depth is the classification's); without temporal
+  // accumulation the frame's depth is used. The other depth tests (disocclusion, zeta) keep
+  // the frame's depth.
+  bool waveletDepthFromHistory = true;
 
   float stereoAlpha = 0.5f; // alpha of D2's lambda
   float stereoBeta = 2.0f;  // beta of D2's lambda
