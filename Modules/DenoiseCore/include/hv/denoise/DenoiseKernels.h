@@ -155,6 +155,21 @@ HV_FUNCTION float clampNonNegativeBits(float v, std::int32_t upperBits)
   return clamped;
 }
 
+// max(v, nonNegative) for any v that is not NaN and nonNegative >= +0, as an integer maximum of
+// the bit patterns, for the reason clampNonNegativeBits gives: with nonNegative's sign bit
+// clear, a negative v (a negative integer) always loses, and non-negative floats order as their
+// bits do.
+HV_FUNCTION float maxWithNonNegativeBits(float v, float nonNegative)
+{
+  std::int32_t bits, otherBits;
+  std::memcpy(&bits, &v, sizeof(bits));
+  std::memcpy(&otherBits, &nonNegative, sizeof(otherBits));
+  bits = glm::max(bits, otherBits);
+  float larger;
+  std::memcpy(&larger, &bits, sizeof(larger));
+  return larger;
+}
+
 // The gradient magnitude that scales the normal term of zeta and of the wavelet filter's
 // edge-stopping: the weaker of the two points' above `floor`. Where the gradient is weak (inside
 // translucent tissue above all) the first scatter point lies at a random depth each frame and
@@ -162,36 +177,22 @@ HV_FUNCTION float clampNonNegativeBits(float v, std::int32_t upperBits)
 // NormalTestGradient for that reason). A normal term scaled by the whole magnitude took that
 // noise for edges: the wavelet filter left such pixels unfiltered, and zeta shortened their
 // histories.
-// The clamp at 0 is an integer maximum of the bits (as in clampNonNegativeBits, without its
-// upper bound), so as not to add a float comparison to the wavelet filter's tap loop.
+// The clamp at 0 is an integer maximum of the bits (maxWithNonNegativeBits), so as not to add a
+// float comparison to the wavelet filter's tap loop.
 HV_FUNCTION float normalGradient(float gradientA, float gradientB, float floor)
 {
-  const float g = glm::min(gradientA, gradientB);
-  const float above = g - floor;
-  std::int32_t bits;
-  std::memcpy(&bits, &above, sizeof(bits));
-  bits = glm::max(bits, 0);
-  float clamped;
-  std::memcpy(&clamped, &bits, sizeof(clamped));
-  return clamped;
+  return maxWithNonNegativeBits(glm::min(gradientA, gradientB) - floor, 0.0f);
 }
 
 // 1 - w + w max(g_a, g_b) for gradient magnitudes >= 0, the wavelet filter's scale of its albedo
 // term (EdgeStopping::albedoGradientWeight). Inside translucent tissue the first scatter point
 // lies at a random depth, and its albedo is a random sample of the colours of the tissue along
 // the ray, different each frame and pixel; where either point sits on a surface (a strong
-// gradient makes the scatter point deterministic) its albedo is the surface's. The maximum of
-// two non-negative floats as the maximum of their bits, for the reason clampNonNegativeBits
-// gives; w = 0 gives exactly 1 and w = 1 exactly the maximum.
+// gradient makes the scatter point deterministic) its albedo is the surface's. w = 0 gives
+// exactly 1 and w = 1 exactly the maximum.
 HV_FUNCTION float albedoGradientScale(float gradientA, float gradientB, float weight)
 {
-  std::int32_t bitsA, bitsB;
-  std::memcpy(&bitsA, &gradientA, sizeof(bitsA));
-  std::memcpy(&bitsB, &gradientB, sizeof(bitsB));
-  const std::int32_t larger = glm::max(bitsA, bitsB);
-  float gradient;
-  std::memcpy(&gradient, &larger, sizeof(gradient));
-  return (1.0f - weight) + weight * gradient;
+  return (1.0f - weight) + weight * maxWithNonNegativeBits(gradientA, gradientB);
 }
 
 // e^-x for x >= 0 (negative x count as 0), to a relative error below 4e-6 on [0, 86] (the
