@@ -440,6 +440,10 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.luminanceSigma = static_cast<float>(this->LuminanceSigma);
   p.waveletLongHistory = static_cast<float>(this->WaveletLongHistory);
   p.waveletDepthFromHistory = this->WaveletDepthFromHistory;
+  p.remodulateByHistoryAlbedo = this->RemodulateByHistoryAlbedo;
+  p.historyAlbedoGradients = glm::vec2(static_cast<float>(this->HistoryAlbedoGradients[0]),
+    static_cast<float>(this->HistoryAlbedoGradients[1]));
+  p.stereoAlbedoFromHistory = this->StereoAlbedoFromHistory;
   p.stereoAlpha = static_cast<float>(this->StereoAlpha);
   p.stereoBeta = static_cast<float>(this->StereoBeta);
   p.stereoAgreementWidth = static_cast<float>(this->StereoAgreementWidth);
@@ -549,6 +553,12 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "WaveletAlbedoGradientWeight: " << this->WaveletAlbedoGradientWeight << "\n";
   os << indent << "WaveletLongHistory: " << this->WaveletLongHistory << "\n";
   os << indent << "WaveletDepthFromHistory: " << (this->WaveletDepthFromHistory ? "On" : "Off")
+     << "\n";
+  os << indent << "RemodulateByHistoryAlbedo: " << (this->RemodulateByHistoryAlbedo ? "On" : "Off")
+     << "\n";
+  os << indent << "HistoryAlbedoGradients: " << this->HistoryAlbedoGradients[0] << ", "
+     << this->HistoryAlbedoGradients[1] << "\n";
+  os << indent << "StereoAlbedoFromHistory: " << (this->StereoAlbedoFromHistory ? "On" : "Off")
      << "\n";
   os << indent << "StereoAlpha: " << this->StereoAlpha << "\n";
   os << indent << "StereoBeta: " << this->StereoBeta << "\n";

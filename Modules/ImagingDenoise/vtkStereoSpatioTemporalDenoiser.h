@@ -433,6 +433,39 @@ public:
 
   ///@{
   /**
+   * Re-modulation multiplies the filtered incident light by the history's mean first scatter
+   * albedo, carried into the frame's view, where the gradient magnitude is weak (default on).
+   * Inside translucent tissue the first scatter albedo is a random sample of the colours along
+   * the ray; re-modulated by the frame's, every frame brought that noise back however long its
+   * history. On a surface the albedo is deterministic and the frame's own is used: the mean,
+   * resampled as the view moves, would blur albedo edges. HistoryAlbedoGradients (low, high)
+   * sets where: the mean below `low`, the frame's albedo from `high` on, linear between
+   * (default 0.15, 0.3, the bounds of the normal terms). The mean starts over where the history
+   * does and on the frame of a new transfer function; it follows the history's taps but not
+   * its lighting gate, since the albedo does not change with the light. Needs
+   * TemporalAccumulation and DemodulateAlbedo.
+   */
+  vtkSetMacro(RemodulateByHistoryAlbedo, bool);
+  vtkGetMacro(RemodulateByHistoryAlbedo, bool);
+  vtkBooleanMacro(RemodulateByHistoryAlbedo, bool);
+  vtkSetVector2Macro(HistoryAlbedoGradients, double);
+  vtkGetVector2Macro(HistoryAlbedoGradients, double);
+  ///@}
+
+  ///@{
+  /**
+   * gamma of D2's lambda is each eye's mean first scatter albedo over its history (see
+   * RemodulateByHistoryAlbedo) instead of the frame's (default on). Inside translucent tissue
+   * the frame's albedo is a random sample of the colours along each eye's ray, and lambda took
+   * two samples of the same tissue for different material. Needs TemporalAccumulation.
+   */
+  vtkSetMacro(StereoAlbedoFromHistory, bool);
+  vtkGetMacro(StereoAlbedoFromHistory, bool);
+  vtkBooleanMacro(StereoAlbedoFromHistory, bool);
+  ///@}
+
+  ///@{
+  /**
    * D2's lambda = StereoAlpha (StereoBeta - exp(-|gamma_L - gamma_R|)), clamped to [0, 1].
    * Defaults 0.5 and 2, as in the paper.
    */
@@ -570,6 +603,9 @@ protected:
   double WaveletAlbedoGradientWeight = 1.0;
   double WaveletLongHistory = 4.0;
   bool WaveletDepthFromHistory = true;
+  bool RemodulateByHistoryAlbedo = true;
+  double HistoryAlbedoGradients[2] = { 0.15, 0.3 };
+  bool StereoAlbedoFromHistory = true;
   double StereoAlpha = 0.5;
   double StereoBeta = 2.0;
   double StereoAgreementWidth = 3.0;

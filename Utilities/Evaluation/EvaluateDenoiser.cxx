@@ -64,6 +64,8 @@ struct Options
   double WaveletNormalGradientFloor = -1.0; // the denoiser's default
   double HistoryNormalGradientFloor = -1.0; // the denoiser's default
   int WaveletDepthFromHistory = -1;         // the denoiser's default
+  int RemodulateByHistoryAlbedo = -1;       // the denoiser's default
+  int StereoAlbedoFromHistory = -1;         // the denoiser's default
   double WaveletAlbedoGradientWeight = -1.0; // the denoiser's default
   int StratifiedSubpixelSamples = -1; // the mapper's default
   bool RelightOnTransferFunctionChange = false;
@@ -136,6 +138,15 @@ under the lamp, or with the new transfer function, all along.
                          1: the wavelet filter's depth edge-stopping compares the history's mean
                          first scatter depth; 0: the frame's own, in every denoiser [the
                          denoiser's default, 1]
+  --remodulate-by-history-albedo 0|1
+                         1: re-modulation multiplies by the history's mean first scatter albedo
+                         where the gradient magnitude is weak (the frame's own from 0.3 on);
+                         0: by the frame's own everywhere, in every denoiser [the denoiser's
+                         default, 1]
+  --stereo-albedo-from-history 0|1
+                         1: gamma of D2's lambda is each eye's mean first scatter albedo over
+                         its history; 0: the frame's own, in every denoiser [the denoiser's
+                         default, 1]
   --wavelet-albedo-gradient-weight W
                          the wavelet filter's albedo edge-stopping is scaled by 1 - W + W
                          max(g, g'), g and g' the gradient magnitudes, in every denoiser, 0 to
@@ -859,6 +870,12 @@ int main(int argc, char* argv[])
     else if (arg == "--wavelet-depth-from-history")
       options.WaveletDepthFromHistory =
         holovolume::IntegerOption(program, "--wavelet-depth-from-history", value(), 0, 1);
+    else if (arg == "--remodulate-by-history-albedo")
+      options.RemodulateByHistoryAlbedo =
+        holovolume::IntegerOption(program, "--remodulate-by-history-albedo", value(), 0, 1);
+    else if (arg == "--stereo-albedo-from-history")
+      options.StereoAlbedoFromHistory =
+        holovolume::IntegerOption(program, "--stereo-albedo-from-history", value(), 0, 1);
     else if (arg == "--subpixel-samples")
     {
       const std::string choice = value();
@@ -1072,6 +1089,16 @@ int main(int argc, char* argv[])
     std::printf("\nevery denoiser's wavelet filter compares %s first scatter depths\n",
       options.WaveletDepthFromHistory ? "the history's mean" : "the frame's own");
   }
+  if (options.RemodulateByHistoryAlbedo >= 0)
+  {
+    std::printf("\nevery denoiser re-modulates by %s first scatter albedo\n",
+      options.RemodulateByHistoryAlbedo ? "the history's mean" : "the frame's own");
+  }
+  if (options.StereoAlbedoFromHistory >= 0)
+  {
+    std::printf("\nevery denoiser's D2 compares %s first scatter albedos\n",
+      options.StereoAlbedoFromHistory ? "the history's mean" : "the frame's own");
+  }
 
   // Raw PSNR against the spp, for the equal-quality figure: the static view, an independent
   // sample set, against a reference of 4x the per-frame reference's samples.
@@ -1281,6 +1308,14 @@ int main(int argc, char* argv[])
           if (options.WaveletDepthFromHistory >= 0)
           {
             run[method]->SetWaveletDepthFromHistory(options.WaveletDepthFromHistory != 0);
+          }
+          if (options.RemodulateByHistoryAlbedo >= 0)
+          {
+            run[method]->SetRemodulateByHistoryAlbedo(options.RemodulateByHistoryAlbedo != 0);
+          }
+          if (options.StereoAlbedoFromHistory >= 0)
+          {
+            run[method]->SetStereoAlbedoFromHistory(options.StereoAlbedoFromHistory != 0);
           }
         }
       }

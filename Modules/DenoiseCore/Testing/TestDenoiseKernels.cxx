@@ -340,6 +340,25 @@ TEST(DenoiseKernels, AlbedoTermScalesWithTheLargerGradient)
   EXPECT_NEAR(weight(0.1f, 0.2f), std::exp(-1.5f), 1e-5f);
 }
 
+// Re-modulation's albedo: the history's mean up to the low gradient, exactly the frame's from
+// the high one on, linear between; a step at the high gradient when the range is empty.
+TEST(DenoiseKernels, RemodulationAlbedoFollowsTheGradient)
+{
+  const glm::vec3 frame(0.8f, 0.4f, 0.2f), history(0.4f, 0.6f, 0.2f);
+  const glm::vec2 gradients(0.15f, 0.3f);
+  EXPECT_EQ(historyRemodulationAlbedo(frame, history, 0.0f, gradients), history);
+  EXPECT_EQ(historyRemodulationAlbedo(frame, history, 0.15f, gradients), history);
+  EXPECT_EQ(historyRemodulationAlbedo(frame, history, 0.3f, gradients), frame);
+  EXPECT_EQ(historyRemodulationAlbedo(frame, history, 1.0f, gradients), frame);
+  const glm::vec3 halfway = historyRemodulationAlbedo(frame, history, 0.225f, gradients);
+  EXPECT_NEAR(halfway.x, 0.6f, 1e-6f);
+  EXPECT_NEAR(halfway.y, 0.5f, 1e-6f);
+  EXPECT_NEAR(halfway.z, 0.2f, 1e-6f);
+  const glm::vec2 step(0.5f, 0.5f);
+  EXPECT_EQ(historyRemodulationAlbedo(frame, history, 0.49f, step), history);
+  EXPECT_EQ(historyRemodulationAlbedo(frame, history, 0.5f, step), frame);
+}
+
 TEST(DenoiseKernels, DemodulationRoundTripAndClamp)
 {
   const glm::vec4 radiance(0.3f, 0.2f, 0.0f, 0.8f);

@@ -4,7 +4,7 @@
 // Internal to HoloVolumeDenoiseCore: the allocator of the denoiser's per-pixel planes, whose
 // memory arrives zeroed and is written only where the volume is seen.
 //
-// A denoiser holds 89 floats a pixel per eye (its history, surfaces and filter planes), 480 MB
+// A denoiser holds 95 floats a pixel per eye (its history, surfaces and filter planes), 512 MB
 // an eye at the headset's 1440x936, and the kernel maps that memory a page at a time as it is
 // first written. On the project's 2-core virtual machine a page fault is expensive, and the
 // first frame spent most of its time in them: 2.97-3.46 s for a 1440x936 stereo pair with

@@ -60,11 +60,13 @@ struct HistoryPlanes
   PlaneVector<float> depthDifferenceSquareMean;
   PlaneVector<float> normalDifferenceSquareMean; // of 1 - cosine
   PlaneVector<float> depthMean;                  // of the first scatter depth, in the frame's view
+  PlaneVector<float> albedoMean[3];              // of the first scatter albedo (RGB)
 
-  std::array<PlaneVector<float>*, 7> statistics()
+  std::array<PlaneVector<float>*, 10> statistics()
   {
     return { &this->luminanceMean, &this->luminanceSquareMean, &this->sampleCount, &this->frames,
-      &this->depthDifferenceSquareMean, &this->normalDifferenceSquareMean, &this->depthMean };
+      &this->depthDifferenceSquareMean, &this->normalDifferenceSquareMean, &this->depthMean,
+      &this->albedoMean[0], &this->albedoMean[1], &this->albedoMean[2] };
   }
 
   glm::vec4 colourAt(std::size_t i) const
@@ -813,7 +815,7 @@ namespace temporal
 // The history's statistics (HistoryPlanes) of each pixel of a row, one plane per field.
 struct HistoryInfoPlanes
 {
-  static constexpr int FieldCount = 7;
+  static constexpr int FieldCount = 10;
   float* luminanceMean;
   float* luminanceSquareMean;
   float* sampleCount;
@@ -821,6 +823,9 @@ struct HistoryInfoPlanes
   float* depthDifferenceSquareMean;
   float* normalDifferenceSquareMean;
   float* depthMean;
+  float* albedoMeanRed;
+  float* albedoMeanGreen;
+  float* albedoMeanBlue;
 
   HistoryInfoPlanes(float* first, int count)
     : luminanceMean(first)
@@ -830,6 +835,9 @@ struct HistoryInfoPlanes
     , depthDifferenceSquareMean(first + 4 * count)
     , normalDifferenceSquareMean(first + 5 * count)
     , depthMean(first + 6 * count)
+    , albedoMeanRed(first + 7 * count)
+    , albedoMeanGreen(first + 8 * count)
+    , albedoMeanBlue(first + 9 * count)
   {
   }
 };
@@ -899,6 +907,9 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
   float* __restrict infoDepthDifferenceSquareMean = info.depthDifferenceSquareMean;
   float* __restrict infoNormalDifferenceSquareMean = info.normalDifferenceSquareMean;
   float* __restrict infoDepthMean = info.depthMean;
+  float* __restrict infoAlbedoMeanRed = info.albedoMeanRed;
+  float* __restrict infoAlbedoMeanGreen = info.albedoMeanGreen;
+  float* __restrict infoAlbedoMeanBlue = info.albedoMeanBlue;
   float* __restrict zeta = plane(Zeta);
   float* __restrict historyDepth = plane(ReprojectedDepth);
   float* __restrict depthDifferenceSquare = plane(DepthDifferenceSquare);
@@ -917,6 +928,9 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
   const float* __restrict storedNormalDifferenceSquareMean =
     eye.history.normalDifferenceSquareMean.data();
   const float* __restrict storedDepthMean = eye.history.depthMean.data();
+  const float* __restrict storedAlbedoMeanRed = eye.history.albedoMean[0].data();
+  const float* __restrict storedAlbedoMeanGreen = eye.history.albedoMean[1].data();
+  const float* __restrict storedAlbedoMeanBlue = eye.history.albedoMean[2].data();
   const float* __restrict reprojectedDepth = eye.reprojectedDepth.data() + row;
   const ExpectedSurfaceRow expected = expectedSurfaceOf(eye.surface, row, p);
   const float* __restrict normalX = expected.normalX;
@@ -934,6 +948,7 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
     float red = 0.0f, green = 0.0f, blue = 0.0f, coverage = 0.0f;
     float luminanceMean = 0.0f, luminanceSquareMean = 0.0f, sampleCount = 0.0f, frames = 0.0f;
     float depthDifferenceSquareMean = 0.0f, normalDifferenceSquareMean = 0.0f, depthMean = 0.0f;
+    float albedoMeanRed = 0.0f, albedoMeanGreen = 0.0f, albedoMeanBlue = 0.0f;
     float depthDifferenceSquareSum = 0.0f, normalDifferenceSquareSum = 0.0f, sum = 0.0f;
     float bestWeight = -1.0f;
     int best = index00[k];
@@ -958,6 +973,9 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
       depthDifferenceSquareMean += taken * storedDepthDifferenceSquareMean[stored];
       normalDifferenceSquareMean += taken * storedNormalDifferenceSquareMean[stored];
       depthMean += taken * storedDepthMean[stored];
+      albedoMeanRed += taken * storedAlbedoMeanRed[stored];
+      albedoMeanGreen += taken * storedAlbedoMeanGreen[stored];
+      albedoMeanBlue += taken * storedAlbedoMeanBlue[stored];
       const float depthDifference = storedDepth - depth;
       depthDifferenceSquareSum += taken * depthDifference * depthDifference;
       const float normalDifference = 1.0f - glm::dot(storedNormal, normal);
@@ -988,6 +1006,9 @@ HV_WIDEST_VECTORS void reprojectHistoryRow(const EyeState& eye, int y, int begin
     infoDepthDifferenceSquareMean[k] = valid ? depthDifferenceSquareMean * inverse : 0.0f;
     infoNormalDifferenceSquareMean[k] = valid ? normalDifferenceSquareMean * inverse : 0.0f;
     infoDepthMean[k] = valid ? depthMean * inverse : 0.0f;
+    infoAlbedoMeanRed[k] = valid ? albedoMeanRed * inverse : 0.0f;
+    infoAlbedoMeanGreen[k] = valid ? albedoMeanGreen * inverse : 0.0f;
+    infoAlbedoMeanBlue[k] = valid ? albedoMeanBlue * inverse : 0.0f;
     depthDifferenceSquare[k] = valid ? depthDifferenceSquareSum * inverse : 0.0f;
     normalDifferenceSquare[k] = valid ? normalDifferenceSquareSum * inverse : 0.0f;
   };
@@ -2550,12 +2571,16 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       const float clampWidth = p.clampWidth;
       const float coverageAgreementWidth = p.coverageAgreementWidth;
       const float surfaceJitterTolerance = p.surfaceJitterTolerance;
-      // The first scatter depth belongs to the transfer function: on the frame of a new one
-      // the mean depth starts over at the frame's, though the history is relit (it guides the
-      // wavelet filter and places D2's point, and the old classification's depth misplaced
-      // both). As products with 1 and 0 (exact for finite depths), not a choice on the flag.
-      const float depthMeanRestart = newClassification ? 1.0f : 0.0f;
-      const float depthMeanKeep = 1.0f - depthMeanRestart;
+      // The first scatter depth and albedo belong to the transfer function: on the frame of a
+      // new one their means start over at the frame's, though the history is relit (the mean
+      // depth guides the wavelet filter and places D2's point, and the old classification's
+      // depth misplaced both; the mean albedo re-modulates and is D2's gamma). As products with
+      // 1 and 0 (exact for finite values), not a choice on the flag.
+      const float meanRestart = newClassification ? 1.0f : 0.0f;
+      const float meanKeep = 1.0f - meanRestart;
+      const float* __restrict albedoRed = eye.surface.albedo[0].data() + row;
+      const float* __restrict albedoGreen = eye.surface.albedo[1].data() + row;
+      const float* __restrict albedoBlue = eye.surface.albedo[2].data() + row;
       const auto blendRow = [&](auto relit, auto exponentialAverage) HV_ALWAYS_INLINE
       {
         constexpr bool Relit = decltype(relit)::value;
@@ -2587,6 +2612,8 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
           float infoDepthDifferenceSquareMean = 0.0f;
           float infoNormalDifferenceSquareMean = 0.0f;
           float infoDepthMean = depth;
+          const glm::vec3 albedo(albedoRed[k], albedoGreen[k], albedoBlue[k]);
+          glm::vec3 infoAlbedoMean = albedo;
           glm::vec4 blended = current;
 
           glm::vec4 history(historyRed[k], historyGreen[k], historyBlue[k], historyCoverage[k]);
@@ -2598,6 +2625,8 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
           const float previousNormalDifferenceSquareMean =
             previousInfo.normalDifferenceSquareMean[k];
           const float previousDepthMean = previousInfo.depthMean[k];
+          const glm::vec3 previousAlbedoMean(previousInfo.albedoMeanRed[k],
+            previousInfo.albedoMeanGreen[k], previousInfo.albedoMeanBlue[k]);
           const float historyDepthDifferenceSquare = depthDifferenceSquare[k];
           const float historyNormalDifferenceSquare = normalDifferenceSquare[k];
           const float historyDepth = reprojectedDepth[k];
@@ -2668,8 +2697,10 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
               glm::mix(previousNormalDifferenceSquareMean, historyNormalDifferenceSquare, alpha);
             // The mean depth moves with the view as the current point does between the views.
             infoDepthMean =
-              depthMeanKeep * glm::mix(previousDepthMean + (depth - historyDepth), depth, alpha) +
-              depthMeanRestart * depth;
+              meanKeep * glm::mix(previousDepthMean + (depth - historyDepth), depth, alpha) +
+              meanRestart * depth;
+            infoAlbedoMean =
+              meanKeep * glm::mix(previousAlbedoMean, albedo, alpha) + meanRestart * albedo;
           }
           // Variance of one raw frame's luminance: temporal once four frames exist (SVGF), the
           // neighbourhood's before; the filtered value averages sampleCount such frames.
@@ -2695,6 +2726,9 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
           blendedInfo.depthDifferenceSquareMean[k] = infoDepthDifferenceSquareMean;
           blendedInfo.normalDifferenceSquareMean[k] = infoNormalDifferenceSquareMean;
           blendedInfo.depthMean[k] = infoDepthMean;
+          blendedInfo.albedoMeanRed[k] = infoAlbedoMean.x;
+          blendedInfo.albedoMeanGreen[k] = infoAlbedoMean.y;
+          blendedInfo.albedoMeanBlue[k] = infoAlbedoMean.z;
           // The jitter learnt so far travels with the surface: next frame this surface is the
           // stored one that the disocclusion tests read (and D2 reads it this frame).
           depthJitter[k] = surfaceJitterTolerance * std::sqrt(infoDepthDifferenceSquareMean);
@@ -2741,6 +2775,9 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       float* __restrict nextNormalDifferenceSquareMean =
         next.normalDifferenceSquareMean.data() + row;
       float* __restrict nextDepthMean = next.depthMean.data() + row;
+      float* __restrict nextAlbedoMeanRed = next.albedoMean[0].data() + row;
+      float* __restrict nextAlbedoMeanGreen = next.albedoMean[1].data() + row;
+      float* __restrict nextAlbedoMeanBlue = next.albedoMean[2].data() + row;
       float* __restrict storedDepthJitter = eye.surface.depthJitter.data() + row;
       float* __restrict storedNormalJitter = eye.surface.normalJitter.data() + row;
       const float* __restrict blendedLuminanceMean = blendedInfo.luminanceMean;
@@ -2752,6 +2789,9 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       const float* __restrict blendedNormalDifferenceSquareMean =
         blendedInfo.normalDifferenceSquareMean;
       const float* __restrict blendedDepthMean = blendedInfo.depthMean;
+      const float* __restrict blendedAlbedoMeanRed = blendedInfo.albedoMeanRed;
+      const float* __restrict blendedAlbedoMeanGreen = blendedInfo.albedoMeanGreen;
+      const float* __restrict blendedAlbedoMeanBlue = blendedInfo.albedoMeanBlue;
 #pragma GCC ivdep
       for (int k = 0; k < count; ++k)
       {
@@ -2768,6 +2808,9 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
         nextDepthDifferenceSquareMean[k] = keptIf(blendedDepthDifferenceSquareMean[k], keep);
         nextNormalDifferenceSquareMean[k] = keptIf(blendedNormalDifferenceSquareMean[k], keep);
         nextDepthMean[k] = keptIf(blendedDepthMean[k], keep);
+        nextAlbedoMeanRed[k] = keptIf(blendedAlbedoMeanRed[k], keep);
+        nextAlbedoMeanGreen[k] = keptIf(blendedAlbedoMeanGreen[k], keep);
+        nextAlbedoMeanBlue[k] = keptIf(blendedAlbedoMeanBlue[k], keep);
         storedDepthJitter[k] = surface ? depthJitter[k] : storedDepthJitter[k];
         storedNormalJitter[k] = surface ? normalJitter[k] : storedNormalJitter[k];
       }
@@ -2849,22 +2892,52 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       });
     source = target;
   }
-  // Re-modulation gives D1's result.
+  // Re-modulation gives D1's result. Without the history's mean albedo the gradient range is
+  // one no gradient (>= 0) falls below, so that the same vector loop takes the frame's albedo
+  // exactly (GCC 12 does not vectorise a choice made on a flag that is the same for the loop).
+  const bool albedoFromHistory = p.temporalAccumulation && p.remodulateByHistoryAlbedo;
+  const glm::vec2 albedoGradients =
+    albedoFromHistory ? p.historyAlbedoGradients : glm::vec2(-2.0f, -1.0f);
+  const bool demodulated = p.demodulateAlbedo;
   impl.forSpans(eyeCount, height,
     [&](int e, int y, int begin, int end) HV_WIDEST_VECTORS
     {
       EyeState& eye = impl.eyes[e];
       const ColourPlanes& in = eye.filtered[source];
+      const PlaneVector<float>(&meanAlbedo)[3] =
+        albedoFromHistory ? eye.nextHistory.albedoMean : eye.surface.albedo;
+      const std::size_t row = static_cast<std::size_t>(y) * width;
+      const float* __restrict albedoRed = eye.surface.albedo[0].data() + row;
+      const float* __restrict albedoGreen = eye.surface.albedo[1].data() + row;
+      const float* __restrict albedoBlue = eye.surface.albedo[2].data() + row;
+      const float* __restrict meanRed = meanAlbedo[0].data() + row;
+      const float* __restrict meanGreen = meanAlbedo[1].data() + row;
+      const float* __restrict meanBlue = meanAlbedo[2].data() + row;
+      const float* __restrict gradientMagnitude = eye.surface.gradientMagnitude.data() + row;
+      const float* __restrict seen = eye.surface.valid.data() + row;
+      const float* __restrict inRed = in.channel[0].data() + row;
+      const float* __restrict inGreen = in.channel[1].data() + row;
+      const float* __restrict inBlue = in.channel[2].data() + row;
+      const float* __restrict inCoverage = in.channel[3].data() + row;
+      float* __restrict outRed = eye.firstStep.channel[0].data() + row;
+      float* __restrict outGreen = eye.firstStep.channel[1].data() + row;
+      float* __restrict outBlue = eye.firstStep.channel[2].data() + row;
+      float* __restrict outCoverage = eye.firstStep.channel[3].data() + row;
+      float* __restrict filteredLuminance = eye.filteredLuminance.data() + row;
+#pragma GCC ivdep
       for (int x = begin; x < end; ++x)
       {
-        const std::size_t i = static_cast<std::size_t>(y) * width + x;
-        const glm::vec4 filtered = in.at(i);
-        const glm::vec3 albedo(
-          eye.surface.albedo[0][i], eye.surface.albedo[1][i], eye.surface.albedo[2][i]);
-        eye.firstStep.set(i,
-          (eye.surface.valid[i] > 0.0f && p.demodulateAlbedo) ? remodulate(filtered, albedo)
-                                                              : filtered);
-        eye.filteredLuminance[i] = luminance(glm::vec3(filtered));
+        const glm::vec4 filtered(inRed[x], inGreen[x], inBlue[x], inCoverage[x]);
+        const glm::vec3 albedo = historyRemodulationAlbedo(
+          glm::vec3(albedoRed[x], albedoGreen[x], albedoBlue[x]),
+          glm::vec3(meanRed[x], meanGreen[x], meanBlue[x]), gradientMagnitude[x], albedoGradients);
+        const glm::vec4 value =
+          (seen[x] > 0.0f) & demodulated ? remodulate(filtered, albedo) : filtered;
+        outRed[x] = value.x;
+        outGreen[x] = value.y;
+        outBlue[x] = value.z;
+        outCoverage[x] = value.w;
+        filteredLuminance[x] = luminance(glm::vec3(filtered));
       }
     });
   this->Statistics.milliseconds[3] = millisecondsSince(stageStart);
@@ -2874,6 +2947,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
   // lambda = alpha (beta - exp(-|gamma_L - gamma_R|)); where the point is hidden from the
   // other eye (or off its screen), the eye keeps its own value.
   stageStart = Clock::now();
+  const bool stereoAlbedoFromHistory = p.temporalAccumulation && p.stereoAlbedoFromHistory;
   impl.forRows(eyeCount, height,
     [&](int e, int y) HV_WIDEST_VECTORS
     {
@@ -2978,6 +3052,17 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
         const float* __restrict storedLuminance = other.filteredLuminance.data();
         const float* __restrict storedVariance = other.variance[source].data();
         const float* __restrict storedSampleCount = other.nextHistory.sampleCount.data();
+        // gamma of D2's lambda: the first scatter albedo, or its mean over the history
+        // (stereoAlbedoFromHistory), of each eye.
+        const float* __restrict storedAlbedoRed = stereoAlbedoFromHistory
+          ? other.nextHistory.albedoMean[0].data()
+          : storedSurfaces.albedoRed;
+        const float* __restrict storedAlbedoGreen = stereoAlbedoFromHistory
+          ? other.nextHistory.albedoMean[1].data()
+          : storedSurfaces.albedoGreen;
+        const float* __restrict storedAlbedoBlue = stereoAlbedoFromHistory
+          ? other.nextHistory.albedoMean[2].data()
+          : storedSurfaces.albedoBlue;
         const ExpectedSurfaceRow ownSurface = expectedSurfaceOf(eye.surface, row, p);
         // A pixel's four taps in one pass, the sums in registers.
         const int* __restrict index00 = tapIndices.data();
@@ -3005,9 +3090,9 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
             green += taken * storedGreen[stored];
             blue += taken * storedBlue[stored];
             coverage += taken * storedCoverage[stored];
-            albedoRedSum += taken * storedSurfaces.albedoRed[stored];
-            albedoGreenSum += taken * storedSurfaces.albedoGreen[stored];
-            albedoBlueSum += taken * storedSurfaces.albedoBlue[stored];
+            albedoRedSum += taken * storedAlbedoRed[stored];
+            albedoGreenSum += taken * storedAlbedoGreen[stored];
+            albedoBlueSum += taken * storedAlbedoBlue[stored];
             luminanceSum += taken * storedLuminance[j];
             varianceSum += taken * storedVariance[j];
             sampleSum += taken * storedSampleCount[stored];
@@ -3035,9 +3120,11 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       const float* __restrict ownGreen = eye.firstStep.channel[1].data() + row;
       const float* __restrict ownBlue = eye.firstStep.channel[2].data() + row;
       const float* __restrict ownCoverageValue = eye.firstStep.channel[3].data() + row;
-      const float* __restrict albedoRed = eye.surface.albedo[0].data() + row;
-      const float* __restrict albedoGreen = eye.surface.albedo[1].data() + row;
-      const float* __restrict albedoBlue = eye.surface.albedo[2].data() + row;
+      const PlaneVector<float>(&ownAlbedo)[3] =
+        stereoAlbedoFromHistory ? eye.nextHistory.albedoMean : eye.surface.albedo;
+      const float* __restrict albedoRed = ownAlbedo[0].data() + row;
+      const float* __restrict albedoGreen = ownAlbedo[1].data() + row;
+      const float* __restrict albedoBlue = ownAlbedo[2].data() + row;
       const float* __restrict ownLuminance = eye.filteredLuminance.data() + row;
       const float* __restrict ownVariance = eye.variance[source].data() + row;
       float* __restrict outRow = out + 4 * row;

@@ -11,7 +11,8 @@ from vtkmodules.vtkRenderingCore import (vtkCamera, vtkColorTransferFunction,
                                          vtkVolume, vtkVolumeProperty)
 
 
-def sphere_volume(size=24):
+def ball_volume(scalar_at_radius, size=24):
+    """A size^3 volume whose scalar depends on the distance r from its centre, in voxels."""
     image = vtkImageData()
     image.SetDimensions(size, size, size)
     image.AllocateScalars(3, 1)  # VTK_UNSIGNED_CHAR
@@ -21,8 +22,18 @@ def sphere_volume(size=24):
         for j in range(size):
             for i in range(size):
                 r = ((i - c) ** 2 + (j - c) ** 2 + (k - c) ** 2) ** 0.5
-                scalars.SetValue((k * size + j) * size + i, 200 if r < 0.35 * size else 0)
+                scalars.SetValue((k * size + j) * size + i, scalar_at_radius(r))
     return image
+
+
+def sphere_volume(size=24):
+    return ball_volume(lambda r: 200 if r < 0.35 * size else 0, size)
+
+
+def graded_sphere_volume(size=24):
+    """A ball whose scalar falls from 255 at its centre to 0 at its rim."""
+    radius = 0.45 * size
+    return ball_volume(lambda r: int(255 * max(0.0, 1.0 - r / radius)), size)
 
 
 def eye_matrices(offset):
@@ -62,6 +73,25 @@ def radiance_values(denoiser, eye):
 
 
 class DenoiserPipelineTest(unittest.TestCase):
+    def assert_same_first_frame_then_different(self, mapper, volume, denoisers):
+        """Two stereo frames through two denoisers that differ in one history setting: on
+        the first frame a history's mean is the frame's own value, so both give the same
+        radiance; on the second they must differ."""
+        left, right = eye_matrices(-1.0), eye_matrices(1.0)
+        for frame in range(2):
+            self.assertEqual(mapper.RenderStereoFrame(volume, left[0], left[1], right[0],
+                                                      right[1], 40, 40), 1)
+            for denoiser in denoisers:
+                denoiser.SetLeftEyeData(mapper.GetEyeOutput(0))
+                denoiser.SetRightEyeData(mapper.GetEyeOutput(1))
+                denoiser.Update()
+            for eye in (0, 1):
+                first, second = (radiance_values(d, eye) for d in denoisers)
+                if frame == 0:
+                    self.assertEqual(first, second)
+                else:
+                    self.assertNotEqual(first, second)
+
     def test_package_exports_the_denoiser(self):
         self.assertIn("vtkStereoSpatioTemporalDenoiser", holovolume.__all__)
 
@@ -102,7 +132,6 @@ class DenoiserPipelineTest(unittest.TestCase):
         second frame on the translucent sphere's random depths and their mean differ, and so
         do the results."""
         mapper, volume = sphere_scene()
-        left, right = eye_matrices(-1.0), eye_matrices(1.0)
         self.assertTrue(holovolume.vtkStereoSpatioTemporalDenoiser()
                         .GetWaveletDepthFromHistory())
         denoisers = []
@@ -111,19 +140,30 @@ class DenoiserPipelineTest(unittest.TestCase):
             denoiser.SetIlluminationDifference(0.0)
             denoiser.SetWaveletDepthFromHistory(depth_from_history)
             denoisers.append(denoiser)
-        for frame in range(2):
-            self.assertEqual(mapper.RenderStereoFrame(volume, left[0], left[1], right[0],
-                                                      right[1], 40, 40), 1)
-            for denoiser in denoisers:
-                denoiser.SetLeftEyeData(mapper.GetEyeOutput(0))
-                denoiser.SetRightEyeData(mapper.GetEyeOutput(1))
-                denoiser.Update()
-            for eye in (0, 1):
-                mean, own = (radiance_values(d, eye) for d in denoisers)
-                if frame == 0:
-                    self.assertEqual(mean, own)
-                else:
-                    self.assertNotEqual(mean, own)
+        self.assert_same_first_frame_then_different(mapper, volume, denoisers)
+
+    def test_remodulate_by_history_albedo(self):
+        """RemodulateByHistoryAlbedo and HistoryAlbedoGradients reach the kernels: on a first
+        frame the mean albedo is the frame's, and re-modulation by either gives the same
+        values; on the second, inside a sphere whose colour changes with its scalar, the
+        random first scatter points' albedos and their mean differ, and so do the results."""
+        mapper, volume = sphere_scene()
+        mapper.SetInputData(graded_sphere_volume())
+        color = volume.GetProperty().GetRGBTransferFunction()
+        color.RemoveAllPoints()
+        color.AddRGBPoint(0, 0.9, 0.2, 0.1)
+        color.AddRGBPoint(255, 0.1, 0.3, 0.9)
+        default = holovolume.vtkStereoSpatioTemporalDenoiser()
+        self.assertTrue(default.GetRemodulateByHistoryAlbedo())
+        self.assertEqual(default.GetHistoryAlbedoGradients(), (0.15, 0.3))
+        denoisers = []
+        for from_history in (True, False):
+            denoiser = holovolume.vtkStereoSpatioTemporalDenoiser()
+            denoiser.SetIlluminationDifference(0.0)
+            denoiser.SetRemodulateByHistoryAlbedo(from_history)
+            denoiser.SetHistoryAlbedoGradients(2.0, 2.0)  # the mean at every gradient
+            denoisers.append(denoiser)
+        self.assert_same_first_frame_then_different(mapper, volume, denoisers)
 
     def test_mapper_eyes_through_the_denoiser(self):
         mapper, volume = sphere_scene()

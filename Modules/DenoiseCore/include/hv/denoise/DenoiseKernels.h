@@ -195,6 +195,22 @@ HV_FUNCTION float albedoGradientScale(float gradientA, float gradientB, float we
   return (1.0f - weight) + weight * maxWithNonNegativeBits(gradientA, gradientB);
 }
 
+// The albedo that re-modulates a pixel's filtered incident light when the history keeps a mean
+// albedo: the history's mean where the gradient magnitude g is at most gradients.x, the frame's
+// own from gradients.y on, linear between (a step at gradients.y, over 1e-6, if y <= x). Inside
+// translucent tissue the first scatter albedo is a random sample of the colours along the ray,
+// and the frame's brings that noise back into every frame; on a surface it is deterministic,
+// and the frame's keeps albedo edges sharp where the mean, resampled bilinearly as the view
+// moves, would blur them. Without branches, so that the re-modulation loop vectorises.
+HV_FUNCTION glm::vec3 historyRemodulationAlbedo(const glm::vec3& frameAlbedo,
+  const glm::vec3& historyAlbedo, float gradientMagnitude, const glm::vec2& gradients)
+{
+  const float low = glm::min(gradients.x, gradients.y - 1e-6f);
+  const float frameShare = glm::clamp((gradientMagnitude - low) / (gradients.y - low), 0.0f, 1.0f);
+  // As a weighted sum, not h + s (f - h): exactly the frame's albedo at s = 1.
+  return historyAlbedo * (1.0f - frameShare) + frameAlbedo * frameShare;
+}
+
 // e^-x for x >= 0 (negative x count as 0), to a relative error below 4e-6 on [0, 86] (the
 // float product x log2(e) dominates; the series adds less than 2e-7): 2^-t with t = x log2(e)
 // clamped to [0, 125]. Written out rather than calling expf because the wavelet filter

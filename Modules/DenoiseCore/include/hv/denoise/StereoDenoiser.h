@@ -190,9 +190,33 @@ struct DenoiserParameters
   // accumulation the frame's depth is used. The other depth tests (disocclusion, zeta) keep
   // the frame's depth.
   bool waveletDepthFromHistory = true;
+  // Re-modulation multiplies the filtered incident light by the history's mean first scatter
+  // albedo (carried into the frame's view with the history's taps) where the gradient magnitude
+  // is weak, the frame's own on surfaces (historyRemodulationAlbedo): below
+  // historyAlbedoGradients.x the mean, from .y on the frame's, linear between. Inside
+  // translucent tissue the first scatter albedo is a random sample of the colours along the
+  // ray, and re-modulated by the frame's, every frame brought that noise back however long its
+  // history. The mean starts over where the history does and on the frame of a new transfer
+  // function (the albedo is the classification's); it follows the history's taps and zeta but
+  // not the lighting gate (the albedo does not change with the light). Where the view moves, the
+  // bilinear taps blur the mean a little every frame: on an opaque checker wall under a moving
+  // camera the mean alone lost 9 dB at the checker's edges, hence the frame's albedo on
+  // surfaces. The bounds are those of the normal terms: the floor of 0.15 under which normals
+  // are noise, and 0.3, above which the disocclusion test trusts them. On the head MRI at 96x62
+  // the mean alone gave static 246 spp, these bounds 242, the frame's albedo 235; the translucent
+  // preset 132, 128 and 120 spp (holovolume-denoise-evaluation).
+  bool remodulateByHistoryAlbedo = true;
+  glm::vec2 historyAlbedoGradients{ 0.15f, 0.3f };
 
   float stereoAlpha = 0.5f; // alpha of D2's lambda
   float stereoBeta = 2.0f;  // beta of D2's lambda
+  // gamma of D2's lambda is each eye's mean first scatter albedo over its history, not the
+  // frame's (without temporal accumulation, the frame's). Inside translucent tissue the frame's
+  // albedo is a random sample of the colours along each eye's ray, and lambda took two samples
+  // of the same tissue for different material; the mean tells materials apart. On the head
+  // MRI at 96x62 D2's noise discrepancy inside the silhouette fell 4-13 % against the frame's
+  // albedo (static, orbit, rotate, switch), the PSNR within 0.01 dB.
+  bool stereoAlbedoFromHistory = true;
   // Beyond the paper: D2 blends the other eye only as far as the eyes' D1 values agree within
   // this many standard deviations of their noise (stereoAgreement); 0: the paper's lambda
   // alone. On the head MRI at 1440x936 the paper's D2 loses 26 % of D1's equal-quality spp
@@ -292,7 +316,7 @@ public:
   // non-finite radiance the outputs hold a copy of it). With replaceLastFrame the
   // call denoises the last frame again (say, after a parameter change) from the history it
   // started with, instead of counting the same samples twice as a new frame. When memory runs
-  // out (the denoiser keeps 89 floats a pixel per eye, about 480 MB an eye at 1440x936), it
+  // out (the denoiser keeps 95 floats a pixel per eye, about 512 MB an eye at 1440x936), it
   // returns false and says how much it needs, and starts over like a new denoiser.
   bool denoise(const EyeFrame* eyes, int eyeCount, float illuminationDifference,
     float* const* outputs, std::string& error, bool replaceLastFrame = false);
