@@ -213,7 +213,7 @@ struct EyeState
   // itself, new over old incident light (RGB) and whether the relit history agrees with the
   // frame at the fine scale (1 or 0). The blending then works in them in place. As a struct and
   // a ratio per pixel of the image they took 113 MB an eye at 1440x936 and a scalar copy each
-  // way; the spans' planes of the head MRI take about 30.
+  // way; the spans' planes of the head MRI take about 25.
   PlaneVector<float> relitPlanes;
   std::vector<std::size_t> relitRowOffset;
   // On the frame of a new transfer function: the previous frame's first scatter scalars, as
@@ -808,8 +808,8 @@ HV_ALWAYS_INLINE inline void forConsecutiveRuns(
 }
 
 // The temporal blending's planes for a row (the temporal stage): each pixel's reprojected
-// history and its statistics, gathered from its four bilinear taps, and the blended statistics and
-// learnt jitters, copied into the eye's history and surface planes after the vector loop.
+// history and its statistics, gathered from its four bilinear taps, which the blending's vector
+// loop reads and blends into the eye's history and surface planes.
 namespace temporal
 {
 // The history's statistics (HistoryPlanes) of each pixel of a row, one plane per field.
@@ -853,10 +853,7 @@ enum Plane
   DepthDifferenceSquare,
   NormalDifferenceSquare,
   RelightingRatio,
-  BlendedInfo = RelightingRatio + 4,
-  DepthJitter = BlendedInfo + HistoryInfoPlanes::FieldCount,
-  NormalJitter,
-  TemporalPlaneCount
+  TemporalPlaneCount = RelightingRatio + 4
 };
 
 // The history of the pixels [begin, begin + count) of row y at pi^{t-1}(x(k^t))
@@ -2505,7 +2502,6 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       }
       const auto plane = [&](int index) { return planes + index * count; };
       const HistoryInfoPlanes previousInfo(plane(PreviousInfo), count);
-      const HistoryInfoPlanes blendedInfo(plane(BlendedInfo), count);
       if (useHistory && eye.hasPrevious && !relight)
       {
         // It writes every plane up to NormalDifferenceSquare; the blending reads the relighting
@@ -2537,8 +2533,6 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       const float* __restrict pointX = eye.surface.point[0].data() + row;
       const float* __restrict pointY = eye.surface.point[1].data() + row;
       const float* __restrict pointZ = eye.surface.point[2].data() + row;
-      float* __restrict depthJitter = plane(DepthJitter);
-      float* __restrict normalJitter = plane(NormalJitter);
       const float* __restrict currentRed = eye.fused.channel[0].data() + row;
       const float* __restrict currentGreen = eye.fused.channel[1].data() + row;
       const float* __restrict currentBlue = eye.fused.channel[2].data() + row;
@@ -2581,6 +2575,31 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       const float* __restrict albedoRed = eye.surface.albedo[0].data() + row;
       const float* __restrict albedoGreen = eye.surface.albedo[1].data() + row;
       const float* __restrict albedoBlue = eye.surface.albedo[2].data() + row;
+      // The blending writes the history's planes (statistics 0 where no surface is seen) and the
+      // learnt jitters itself: copied from planes of the row in a loop after it, as before this
+      // was one loop, the stage took 1.3 ms more per 1440x936 stereo pair (the minimum of 3
+      // pairs in turns, the same values). The statistics are kept or cleared by a bit mask:
+      // GCC turned `surface ? value : 0` into two conditional stores, which its vector loop
+      // emulated by reading the old values (memory no cache held, the stage's hottest load in
+      // perf), blending and writing them back; with the mask it only writes them.
+      HistoryPlanes& next = eye.nextHistory;
+      float* __restrict nextRed = next.colour[0].data() + row;
+      float* __restrict nextGreen = next.colour[1].data() + row;
+      float* __restrict nextBlue = next.colour[2].data() + row;
+      float* __restrict nextCoverage = next.colour[3].data() + row;
+      float* __restrict nextLuminanceMean = next.luminanceMean.data() + row;
+      float* __restrict nextLuminanceSquareMean = next.luminanceSquareMean.data() + row;
+      float* __restrict nextSampleCount = next.sampleCount.data() + row;
+      float* __restrict nextFrames = next.frames.data() + row;
+      float* __restrict nextDepthDifferenceSquareMean = next.depthDifferenceSquareMean.data() + row;
+      float* __restrict nextNormalDifferenceSquareMean =
+        next.normalDifferenceSquareMean.data() + row;
+      float* __restrict nextDepthMean = next.depthMean.data() + row;
+      float* __restrict nextAlbedoMeanRed = next.albedoMean[0].data() + row;
+      float* __restrict nextAlbedoMeanGreen = next.albedoMean[1].data() + row;
+      float* __restrict nextAlbedoMeanBlue = next.albedoMean[2].data() + row;
+      float* __restrict storedDepthJitter = eye.surface.depthJitter.data() + row;
+      float* __restrict storedNormalJitter = eye.surface.normalJitter.data() + row;
       const auto blendRow = [&](auto relit, auto exponentialAverage) HV_ALWAYS_INLINE
       {
         constexpr bool Relit = decltype(relit)::value;
@@ -2719,20 +2738,29 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
           coverageSharpnessOf[k] = surface
             ? coverageSharpness(mean.w, infoSampleCount, coverageAgreementWidth)
             : coverageSharpnessOf[k];
-          blendedInfo.luminanceMean[k] = infoLuminanceMean;
-          blendedInfo.luminanceSquareMean[k] = infoLuminanceSquareMean;
-          blendedInfo.sampleCount[k] = infoSampleCount;
-          blendedInfo.frames[k] = infoFrames;
-          blendedInfo.depthDifferenceSquareMean[k] = infoDepthDifferenceSquareMean;
-          blendedInfo.normalDifferenceSquareMean[k] = infoNormalDifferenceSquareMean;
-          blendedInfo.depthMean[k] = infoDepthMean;
-          blendedInfo.albedoMeanRed[k] = infoAlbedoMean.x;
-          blendedInfo.albedoMeanGreen[k] = infoAlbedoMean.y;
-          blendedInfo.albedoMeanBlue[k] = infoAlbedoMean.z;
+          nextRed[k] = blended.x;
+          nextGreen[k] = blended.y;
+          nextBlue[k] = blended.z;
+          nextCoverage[k] = blended.w;
+          const std::uint32_t keep = 0u - static_cast<std::uint32_t>(surface);
+          nextLuminanceMean[k] = keptIf(infoLuminanceMean, keep);
+          nextLuminanceSquareMean[k] = keptIf(infoLuminanceSquareMean, keep);
+          nextSampleCount[k] = keptIf(infoSampleCount, keep);
+          nextFrames[k] = keptIf(infoFrames, keep);
+          nextDepthDifferenceSquareMean[k] = keptIf(infoDepthDifferenceSquareMean, keep);
+          nextNormalDifferenceSquareMean[k] = keptIf(infoNormalDifferenceSquareMean, keep);
+          nextDepthMean[k] = keptIf(infoDepthMean, keep);
+          nextAlbedoMeanRed[k] = keptIf(infoAlbedoMean.x, keep);
+          nextAlbedoMeanGreen[k] = keptIf(infoAlbedoMean.y, keep);
+          nextAlbedoMeanBlue[k] = keptIf(infoAlbedoMean.z, keep);
           // The jitter learnt so far travels with the surface: next frame this surface is the
           // stored one that the disocclusion tests read (and D2 reads it this frame).
-          depthJitter[k] = surfaceJitterTolerance * std::sqrt(infoDepthDifferenceSquareMean);
-          normalJitter[k] = surfaceJitterTolerance * std::sqrt(infoNormalDifferenceSquareMean);
+          const float depthJitter =
+            surfaceJitterTolerance * std::sqrt(infoDepthDifferenceSquareMean);
+          const float normalJitter =
+            surfaceJitterTolerance * std::sqrt(infoNormalDifferenceSquareMean);
+          storedDepthJitter[k] = surface ? depthJitter : storedDepthJitter[k];
+          storedNormalJitter[k] = surface ? normalJitter : storedNormalJitter[k];
         }
       };
       using Yes = std::true_type;
@@ -2755,70 +2783,12 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
         blendRow(No(), No());
       }
 
-      // Into the history's planes (statistics 0 where no surface is seen) and the surface
-      // planes, in a loop GCC vectorises (a per-pixel loop with a branch took 1.5-2 ms per
-      // stereo pair); the row's statistics in a loop of their own. The statistics are kept or
-      // cleared by a bit mask: GCC turned `surface ? value : 0` into two conditional stores,
-      // which its vector loop emulated by reading the old values (memory no cache held, the
-      // stage's hottest load in perf), blending and writing them back; with the mask it only
-      // writes them (temporal stage 0.36 ms faster on the mean of 7 pairs, the same values).
-      HistoryPlanes& next = eye.nextHistory;
-      float* __restrict nextRed = next.colour[0].data() + row;
-      float* __restrict nextGreen = next.colour[1].data() + row;
-      float* __restrict nextBlue = next.colour[2].data() + row;
-      float* __restrict nextCoverage = next.colour[3].data() + row;
-      float* __restrict nextLuminanceMean = next.luminanceMean.data() + row;
-      float* __restrict nextLuminanceSquareMean = next.luminanceSquareMean.data() + row;
-      float* __restrict nextSampleCount = next.sampleCount.data() + row;
-      float* __restrict nextFrames = next.frames.data() + row;
-      float* __restrict nextDepthDifferenceSquareMean = next.depthDifferenceSquareMean.data() + row;
-      float* __restrict nextNormalDifferenceSquareMean =
-        next.normalDifferenceSquareMean.data() + row;
-      float* __restrict nextDepthMean = next.depthMean.data() + row;
-      float* __restrict nextAlbedoMeanRed = next.albedoMean[0].data() + row;
-      float* __restrict nextAlbedoMeanGreen = next.albedoMean[1].data() + row;
-      float* __restrict nextAlbedoMeanBlue = next.albedoMean[2].data() + row;
-      float* __restrict storedDepthJitter = eye.surface.depthJitter.data() + row;
-      float* __restrict storedNormalJitter = eye.surface.normalJitter.data() + row;
-      const float* __restrict blendedLuminanceMean = blendedInfo.luminanceMean;
-      const float* __restrict blendedLuminanceSquareMean = blendedInfo.luminanceSquareMean;
-      const float* __restrict blendedSampleCount = blendedInfo.sampleCount;
-      const float* __restrict blendedFrames = blendedInfo.frames;
-      const float* __restrict blendedDepthDifferenceSquareMean =
-        blendedInfo.depthDifferenceSquareMean;
-      const float* __restrict blendedNormalDifferenceSquareMean =
-        blendedInfo.normalDifferenceSquareMean;
-      const float* __restrict blendedDepthMean = blendedInfo.depthMean;
-      const float* __restrict blendedAlbedoMeanRed = blendedInfo.albedoMeanRed;
-      const float* __restrict blendedAlbedoMeanGreen = blendedInfo.albedoMeanGreen;
-      const float* __restrict blendedAlbedoMeanBlue = blendedInfo.albedoMeanBlue;
-#pragma GCC ivdep
-      for (int k = 0; k < count; ++k)
-      {
-        nextRed[k] = accumulatedRed[k];
-        nextGreen[k] = accumulatedGreen[k];
-        nextBlue[k] = accumulatedBlue[k];
-        nextCoverage[k] = accumulatedCoverage[k];
-        const bool surface = seen[k] > 0.0f;
-        const std::uint32_t keep = 0u - static_cast<std::uint32_t>(surface);
-        nextLuminanceMean[k] = keptIf(blendedLuminanceMean[k], keep);
-        nextLuminanceSquareMean[k] = keptIf(blendedLuminanceSquareMean[k], keep);
-        nextSampleCount[k] = keptIf(blendedSampleCount[k], keep);
-        nextFrames[k] = keptIf(blendedFrames[k], keep);
-        nextDepthDifferenceSquareMean[k] = keptIf(blendedDepthDifferenceSquareMean[k], keep);
-        nextNormalDifferenceSquareMean[k] = keptIf(blendedNormalDifferenceSquareMean[k], keep);
-        nextDepthMean[k] = keptIf(blendedDepthMean[k], keep);
-        nextAlbedoMeanRed[k] = keptIf(blendedAlbedoMeanRed[k], keep);
-        nextAlbedoMeanGreen[k] = keptIf(blendedAlbedoMeanGreen[k], keep);
-        nextAlbedoMeanBlue[k] = keptIf(blendedAlbedoMeanBlue[k], keep);
-        storedDepthJitter[k] = surface ? depthJitter[k] : storedDepthJitter[k];
-        storedNormalJitter[k] = surface ? normalJitter[k] : storedNormalJitter[k];
-      }
+      // The row's statistics in a loop of their own.
       RowStatistics rowStatistics;
       for (int k = 0; k < count; ++k)
       {
         const bool surface = seen[k] > 0.0f;
-        const float frames = blendedFrames[k];
+        const float frames = nextFrames[k];
         rowStatistics.surfaces += surface ? 1 : 0;
         rowStatistics.fresh += surface & (frames <= 1.0f) ? 1 : 0;
         rowStatistics.historyLengthSum += surface ? frames : 0.0f;
