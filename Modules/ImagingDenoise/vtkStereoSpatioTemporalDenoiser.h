@@ -440,10 +440,10 @@ public:
    * history. On a surface the albedo is deterministic and the frame's own is used: the mean,
    * resampled as the view moves, would blur albedo edges. HistoryAlbedoGradients (low, high)
    * sets where: the mean below `low`, the frame's albedo from `high` on, linear between
-   * (default 0.15, 0.3, the bounds of the normal terms). The mean starts over where the history
-   * does and on the frame of a new transfer function; it follows the history's taps but not
-   * its lighting gate, since the albedo does not change with the light. Needs
-   * TemporalAccumulation and DemodulateAlbedo.
+   * (default 0.15, 0.3, the bounds of the normal terms; bounds above 1, which no gradient
+   * magnitude reaches, give the mean everywhere). The mean follows the history's taps and
+   * weight, and starts over where the history does and on the frame of a new transfer
+   * function. Needs TemporalAccumulation and DemodulateAlbedo.
    */
   vtkSetMacro(RemodulateByHistoryAlbedo, bool);
   vtkGetMacro(RemodulateByHistoryAlbedo, bool);

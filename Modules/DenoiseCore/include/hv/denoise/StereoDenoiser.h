@@ -197,8 +197,9 @@ struct DenoiserParameters
   // translucent tissue the first scatter albedo is a random sample of the colours along the
   // ray, and re-modulated by the frame's, every frame brought that noise back however long its
   // history. The mean starts over where the history does and on the frame of a new transfer
-  // function (the albedo is the classification's); it follows the history's taps and zeta but
-  // not the lighting gate (the albedo does not change with the light). Where the view moves, the
+  // function (the albedo is the classification's); it is blended with the colour's weight,
+  // lighting gate included (without the gate, which the albedo does not need, the rotating light
+  // and the switch measured the same to the hundredth). Where the view moves, the
   // bilinear taps blur the mean a little every frame: on an opaque checker wall under a moving
   // camera the mean alone lost 9 dB at the checker's edges, hence the frame's albedo on
   // surfaces. The bounds are those of the normal terms: the floor of 0.15 under which normals
