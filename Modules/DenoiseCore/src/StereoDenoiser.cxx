@@ -2917,7 +2917,12 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
   // lambda = alpha (beta - exp(-|gamma_L - gamma_R|)); where the point is hidden from the
   // other eye (or off its screen), the eye keeps its own value.
   stageStart = Clock::now();
+  // gamma of D2's lambda: each eye's first scatter albedo, or its mean over the history
+  // (stereoAlbedoFromHistory).
   const bool stereoAlbedoFromHistory = p.temporalAccumulation && p.stereoAlbedoFromHistory;
+  const auto gammaOf = [stereoAlbedoFromHistory](
+                         const EyeState& eye) -> const PlaneVector<float>(&)[3]
+  { return stereoAlbedoFromHistory ? eye.nextHistory.albedoMean : eye.surface.albedo; };
   impl.forRows(eyeCount, height,
     [&](int e, int y) HV_WIDEST_VECTORS
     {
@@ -3022,17 +3027,10 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
         const float* __restrict storedLuminance = other.filteredLuminance.data();
         const float* __restrict storedVariance = other.variance[source].data();
         const float* __restrict storedSampleCount = other.nextHistory.sampleCount.data();
-        // gamma of D2's lambda: the first scatter albedo, or its mean over the history
-        // (stereoAlbedoFromHistory), of each eye.
-        const float* __restrict storedAlbedoRed = stereoAlbedoFromHistory
-          ? other.nextHistory.albedoMean[0].data()
-          : storedSurfaces.albedoRed;
-        const float* __restrict storedAlbedoGreen = stereoAlbedoFromHistory
-          ? other.nextHistory.albedoMean[1].data()
-          : storedSurfaces.albedoGreen;
-        const float* __restrict storedAlbedoBlue = stereoAlbedoFromHistory
-          ? other.nextHistory.albedoMean[2].data()
-          : storedSurfaces.albedoBlue;
+        const PlaneVector<float>(&otherGamma)[3] = gammaOf(other);
+        const float* __restrict storedAlbedoRed = otherGamma[0].data();
+        const float* __restrict storedAlbedoGreen = otherGamma[1].data();
+        const float* __restrict storedAlbedoBlue = otherGamma[2].data();
         const ExpectedSurfaceRow ownSurface = expectedSurfaceOf(eye.surface, row, p);
         // A pixel's four taps in one pass, the sums in registers.
         const int* __restrict index00 = tapIndices.data();
@@ -3090,8 +3088,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       const float* __restrict ownGreen = eye.firstStep.channel[1].data() + row;
       const float* __restrict ownBlue = eye.firstStep.channel[2].data() + row;
       const float* __restrict ownCoverageValue = eye.firstStep.channel[3].data() + row;
-      const PlaneVector<float>(&ownAlbedo)[3] =
-        stereoAlbedoFromHistory ? eye.nextHistory.albedoMean : eye.surface.albedo;
+      const PlaneVector<float>(&ownAlbedo)[3] = gammaOf(eye);
       const float* __restrict albedoRed = ownAlbedo[0].data() + row;
       const float* __restrict albedoGreen = ownAlbedo[1].data() + row;
       const float* __restrict albedoBlue = ownAlbedo[2].data() + row;
