@@ -1085,6 +1085,9 @@ int Serve(const Options& options, vtkPathTracedVolumeMapper* mapper, vtkVolume* 
   if (options.Denoise)
   {
     output->SetDenoiser(denoiser);
+    // Where the live environment changed, the denoiser relights its history by the ratio of the
+    // frame to the same paths under the previous environment (Documentation/Denoising.md).
+    mapper->RenderPreviousLightingOn();
   }
   output->SetEyeSize(options.EyeWidth, options.EyeHeight);
   output->SetPort(options.Port);

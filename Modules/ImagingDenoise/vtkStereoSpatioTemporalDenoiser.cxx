@@ -316,6 +316,14 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
         return 0;
       }
     }
+    if (image->GetPointData()->GetArray("PreviousLightingRadiance"))
+    {
+      f.previousLightRadiance = EyeArray(this, image, names[e], "PreviousLightingRadiance", 3);
+      if (!f.previousLightRadiance)
+      {
+        return 0;
+      }
+    }
     auto* valid = vtkUnsignedCharArray::SafeDownCast(
       image->GetPointData()->GetArray("FirstScatterValid"));
     if (!valid || valid->GetNumberOfTuples() != image->GetNumberOfPoints())
@@ -424,6 +432,9 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.maximumHistoryLength = this->MaximumHistoryLength;
   p.relightingRadius = static_cast<float>(this->RelightingRadius);
   p.relitHistoryReuse = static_cast<float>(this->RelitHistoryReuse);
+  p.relightFromPreviousLighting = this->RelightFromPreviousLighting;
+  p.previousLightingRadius = static_cast<float>(this->PreviousLightingRadius);
+  p.previousLightingWeight = static_cast<float>(this->PreviousLightingWeight);
   p.relitHistoryRejection = static_cast<float>(this->RelitHistoryRejection);
   p.classificationScalarTolerance = static_cast<float>(this->ClassificationScalarTolerance);
   p.classificationCoverageWidth = static_cast<float>(this->ClassificationCoverageWidth);
@@ -531,6 +542,11 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "MaximumHistoryLength: " << this->MaximumHistoryLength << "\n";
   os << indent << "RelightingRadius: " << this->RelightingRadius << "\n";
   os << indent << "RelitHistoryReuse: " << this->RelitHistoryReuse << "\n";
+  os << indent
+     << "RelightFromPreviousLighting: " << (this->RelightFromPreviousLighting ? "On" : "Off")
+     << "\n";
+  os << indent << "PreviousLightingRadius: " << this->PreviousLightingRadius << "\n";
+  os << indent << "PreviousLightingWeight: " << this->PreviousLightingWeight << "\n";
   os << indent << "RelitHistoryRejection: " << this->RelitHistoryRejection << "\n";
   os << indent << "ClassificationScalarTolerance: " << this->ClassificationScalarTolerance << "\n";
   os << indent << "ClassificationCoverageWidth: " << this->ClassificationCoverageWidth << "\n";

@@ -219,6 +219,30 @@ public:
 
   ///@{
   /**
+   * Where an eye's image carries "PreviousLightingRadiance" (vtkPathTracedVolumeMapper::
+   * SetRenderPreviousLighting: the frame's paths shaded also under the previous frame's
+   * environment) and T says the light changed after a frame whose light it did not, the history
+   * is relit by the ratio of the frame's radiance to it, two Gaussian-weighted means of
+   * PreviousLightingRadius pixels (default on, radius 4). Both estimates share their paths, so
+   * the ratio carries the noise of the change of light alone. It is applied with
+   * PreviousLightingWeight (default 1), and the frame's ratio to the history corrects what is
+   * left with the rest of the gain it would have had alone. The later frames of a run of changes
+   * are relit by the frame's ratio, which starts from the frame each time, where the previous
+   * light's would add up its errors over the run. On the head MRI's light switch the frames
+   * after the lamp gain 0.13-0.25 dB and recover a frame sooner; see
+   * Documentation/Denoising.md.
+   */
+  vtkSetMacro(RelightFromPreviousLighting, bool);
+  vtkGetMacro(RelightFromPreviousLighting, bool);
+  vtkBooleanMacro(RelightFromPreviousLighting, bool);
+  vtkSetClampMacro(PreviousLightingRadius, double, 0.0, 64.0);
+  vtkGetMacro(PreviousLightingRadius, double);
+  vtkSetClampMacro(PreviousLightingWeight, double, 0.0, 1.0);
+  vtkGetMacro(PreviousLightingWeight, double);
+  ///@}
+
+  ///@{
+  /**
    * Where the relit history and the frame differ at the scale of a pixel by more than this
    * many standard errors of the frame's local mean (default 3), the light changed in a way the
    * ratio cannot follow, such as a hard shadow that moved, and the pixel starts its history
@@ -580,6 +604,9 @@ protected:
   double SigmoidCenter = -1.15;
   double RelightingRadius = 4.0;
   double RelitHistoryReuse = 1.0;
+  bool RelightFromPreviousLighting = true;
+  double PreviousLightingRadius = 4.0;
+  double PreviousLightingWeight = 1.0;
   double RelitHistoryRejection = 3.0;
   double ClassificationScalarTolerance = 0.1;
   double ClassificationCoverageWidth = 1.5;

@@ -135,10 +135,61 @@ public:
     RenderSettings Settings{};
     vtkNew<vtkImageData> Output;
     bool Valid = false;
+    // The environment and lights of the eye's last frame, for RenderPreviousLighting. The view's
+    // texels belong to the map of generation LastEnvironmentGeneration (-1: none rendered).
+    hv::EnvironmentView LastEnvironment;
+    int LastEnvironmentGeneration = -1;
+    hv::PointLightView LastLights[hv::MaximumLights];
+    int LastLightCount = 0;
   };
 
   hv::VolumeGrid Grid;
   hv::EnvironmentMap Environment;
+  // With RenderPreviousLighting, the map Environment held before its last change (its texels
+  // are what the eyes' LastEnvironment views point at until they render under the new one), and
+  // which generation that was. The generation counts changes of Environment's texels.
+  hv::EnvironmentMap PreviousEnvironment;
+  int EnvironmentGeneration = 0;
+  int PreviousEnvironmentGeneration = -1;
+  // Before Environment's texels are replaced or cleared: keeps them for the eyes' previous
+  // lighting, or lets the eyes know they are gone.
+  void RetireEnvironment(bool keep)
+  {
+    if (keep)
+    {
+      std::swap(this->Environment, this->PreviousEnvironment);
+      this->PreviousEnvironmentGeneration = this->EnvironmentGeneration;
+    }
+    else
+    {
+      this->PreviousEnvironment = hv::EnvironmentMap();
+      this->PreviousEnvironmentGeneration = -1;
+    }
+    ++this->EnvironmentGeneration;
+  }
+  // Whether an eye's last frame was lit by another environment than `scene`'s that is still
+  // held, with the same renderer lights (their change is not shaded twice).
+  bool PreviousLightingChanged(const EyeState& state, const hv::SceneView& scene) const
+  {
+    const int generation = state.LastEnvironmentGeneration;
+    if (generation < 0 ||
+      (generation != this->EnvironmentGeneration &&
+        generation != this->PreviousEnvironmentGeneration))
+    {
+      return false;
+    }
+    if (state.LastLightCount != scene.lightCount ||
+      std::memcmp(state.LastLights, scene.lights,
+        sizeof(hv::PointLightView) * static_cast<std::size_t>(scene.lightCount)) != 0)
+    {
+      return false;
+    }
+    const hv::EnvironmentView& last = state.LastEnvironment;
+    const hv::EnvironmentView& now = scene.environment;
+    return generation != this->EnvironmentGeneration || last.scale != now.scale ||
+      last.worldToMap != now.worldToMap ||
+      (now.isUniform() && last.uniformRadiance != now.uniformRadiance);
+  }
   vtkImageData* ScalarsInput = nullptr;
   vtkMTimeType ScalarsTime = 0;
   double ScalarRange[2] = { 0.0, 1.0 };
@@ -605,6 +656,7 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
       internals->EnvironmentInput = map;
       internals->EnvironmentTime = environmentTime;
       internals->EnvironmentValid = false;
+      internals->RetireEnvironment(self->GetRenderPreviousLighting());
       vtkDataArray* radiance = map->GetPointData()->GetScalars();
       int dims[3];
       map->GetDimensions(dims);
@@ -656,6 +708,7 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
   {
     internals->EnvironmentInput = nullptr;
     internals->EnvironmentValid = false;
+    internals->RetireEnvironment(self->GetRenderPreviousLighting());
     internals->Environment.clearRadiance();
   }
   const double* uniform = self->GetEnvironmentRadiance();
@@ -830,6 +883,7 @@ struct EyeBuffers
   float* gradient;
   float* scalar;
   unsigned char* valid;
+  float* previousLight; // nullptr unless the frame shades the previous environment
 };
 
 // The path tracer's inner loop, compiled twice: for x86-64-v3 (AVX2, FMA) and for the
@@ -865,6 +919,13 @@ HV_RENDER_CLONES void RenderRows(const hv::SceneView& scene, const hv::EyeView& 
         out.radianceSum[4 * pixel + c] =
           out.sumStarts ? r.radiance[c] : out.radianceSum[4 * pixel + c] + r.radiance[c];
         out.radiance[4 * pixel + c] = out.radianceSum[4 * pixel + c] * inverseFrames;
+      }
+      if (out.previousLight)
+      {
+        for (int c = 0; c < 3; ++c)
+        {
+          out.previousLight[3 * pixel + c] = r.previousLightRadiance[c];
+        }
       }
       out.valid[pixel] = static_cast<unsigned char>(r.hit);
       out.depth[pixel] = r.hit ? r.depth : 0.0f;
@@ -939,6 +1000,25 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
     }
     validArray->SetNumberOfTuples(pixelCount);
     buffers.valid = validArray->GetPointer(0);
+    // The previous environment, where this eye's last frame was lit by another one that is
+    // still held (PreviousLightingChanged). The scene is copied only then.
+    hv::SceneView previousLightingScene;
+    const hv::SceneView* eyeScene = &scene;
+    buffers.previousLight = nullptr;
+    if (self->GetRenderPreviousLighting() && scene.model == hv::PathTraced &&
+      internals->PreviousLightingChanged(state, scene))
+    {
+      previousLightingScene = scene;
+      previousLightingScene.previousEnvironment = state.LastEnvironment;
+      previousLightingScene.shadePreviousEnvironment = true;
+      eyeScene = &previousLightingScene;
+      buffers.previousLight =
+        OutputArray(output, "PreviousLightingRadiance", 3, pixelCount)->GetPointer(0);
+    }
+    else
+    {
+      output->GetPointData()->RemoveArray("PreviousLightingRadiance");
+    }
     output->GetPointData()->SetActiveScalars("Radiance");
 
     const int frames = state.AccumulatedFrames + 1;
@@ -960,7 +1040,7 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
       vtkSMPTools::For(rowBegin, rowEnd, 1,
         [&](vtkIdType begin, vtkIdType end)
         {
-          RenderRows(scene, view, rectangle, begin, end, static_cast<std::uint32_t>(eyeIndex),
+          RenderRows(*eyeScene, view, rectangle, begin, end, static_cast<std::uint32_t>(eyeIndex),
             frameIndex, seed, samplesPerPixel, inverseFrames, buffers);
         });
       self->UpdateProgress((e + (band + 1.0) / bandsPerEye) / eyeCount);
@@ -971,6 +1051,13 @@ void vtkPathTracedVolumeMapper::RenderEyes(const hv::SceneView& scene, const int
     state.SceneKey = internals->SceneKey;
     state.Settings = settings;
     state.Valid = true;
+    state.LastEnvironment = scene.environment;
+    // Only radiance lookups are made under a previous environment; its sampling tables are not
+    // kept alive.
+    state.LastEnvironment.distribution = hv::Distribution2DView();
+    state.LastEnvironmentGeneration = internals->EnvironmentGeneration;
+    std::copy_n(scene.lights, scene.lightCount, state.LastLights);
+    state.LastLightCount = scene.lightCount;
 
     output->GetFieldData()->Initialize();
     SetFieldMatrix(output, "ViewMatrix", view.view);
@@ -1341,6 +1428,8 @@ void vtkPathTracedVolumeMapper::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "EnvironmentRadiance: (" << this->EnvironmentRadiance[0] << ", "
      << this->EnvironmentRadiance[1] << ", " << this->EnvironmentRadiance[2] << ")\n";
   os << indent << "EnvironmentIntensity: " << this->EnvironmentIntensity << "\n";
+  os << indent << "RenderPreviousLighting: " << (this->RenderPreviousLighting ? "On" : "Off")
+     << "\n";
   os << indent << "EnvironmentVisible: " << (this->EnvironmentVisible ? "On" : "Off") << "\n";
   os << indent
      << "EnvironmentImportanceSampling: " << (this->EnvironmentImportanceSampling ? "On" : "Off")

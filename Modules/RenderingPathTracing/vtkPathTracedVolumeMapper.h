@@ -258,6 +258,23 @@ public:
 
   ///@{
   /**
+   * On a frame whose environment differs from the one the eye was last rendered under (a new
+   * map, a rotation, another intensity), shade every path of the path-traced model also under
+   * that previous environment, with the same random numbers, and output the result per eye as
+   * "PreviousLightingRadiance" (float RGB, linear, premultiplied like "Radiance"). The two
+   * estimates differ only by the change of light, so a vtkStereoSpatioTemporalDenoiser relights
+   * its history with their ratio far more exactly than from the noisy frame alone. Off by
+   * default; it costs an extra environment lookup per environment term on such frames and
+   * keeps the previous map in memory. The renderer's lights count as unchanged; a frame whose
+   * lights changed, or whose previous environment is no longer held, has no such array.
+   */
+  vtkSetMacro(RenderPreviousLighting, bool);
+  vtkGetMacro(RenderPreviousLighting, bool);
+  vtkBooleanMacro(RenderPreviousLighting, bool);
+  ///@}
+
+  ///@{
+  /**
    * Importance-sample the environment map by luminance x sin(theta) (default on); off
    * samples directions uniformly (for comparisons).
    */
@@ -344,9 +361,10 @@ public:
    * "Normal" (float xyz, unit gradient direction facing the eye), "GradientMagnitude"
    * (float, normalised to [0, 1]), "FirstScatterScalar" (float, the data's scalar at the first
    * scatter point, normalised to [0, 1] over its range: the material, whatever the transfer
-   * function makes of it). Field data: "ViewMatrix", "ProjectionMatrix" (16 doubles,
-   * row-major as vtkMatrix4x4), "FrameIndex", "AccumulatedFrames", "Eye", and
-   * "ClassificationStamp", which changes when the data or the transfer function does (a
+   * function makes of it), and on frames that changed the environment with
+   * RenderPreviousLighting on, "PreviousLightingRadiance" (float RGB). Field data: "ViewMatrix",
+   * "ProjectionMatrix" (16 doubles, row-major as vtkMatrix4x4), "FrameIndex", "AccumulatedFrames",
+   * "Eye", and "ClassificationStamp", which changes when the data or the transfer function does (a
    * denoiser drops its history then), "DataStamp", which changes with the data alone (a
    * denoiser may relight its history for a new transfer function), and "VolumeMatrix" (the
    * vtkVolume's matrix, world from volume, 16 doubles row-major), with which a denoiser follows a
@@ -401,6 +419,7 @@ protected:
   double EnvironmentIntensity = 1.0;
   bool EnvironmentVisible = false;
   bool EnvironmentImportanceSampling = true;
+  bool RenderPreviousLighting = false;
   bool UseRendererLights = true;
   double StepLengthFactor = 0.5;
   int MacrocellSize = 2;

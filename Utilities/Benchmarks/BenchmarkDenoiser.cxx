@@ -52,12 +52,15 @@ void Usage()
   std::cout << R"(Usage: holovolume-denoise-benchmark [options]
 
 Times vtkStereoSpatioTemporalDenoiser on stereo frames of the path tracer, next to the path
-tracer's own frame time, in one run: each stage of the full denoiser, variants without D2 or
-without the history, relit every frame for a change of light or for a new transfer function
-(with the first scatter scalar and coverage tests and without), and the first frames apart (where the
-mapper builds its grids, and each denoiser sizes its planes and maps their pages where it
-first writes them: the first frame's, then the previous frame's and the history's on the
-second, and the relighting's on the first relit one).
+tracer's own frame time, in one run: each stage of the full denoiser; variants without D2 or
+without the history; relit every frame for a change of light; relit every other frame, the first
+frame of a change, by the frame's ratio to the history and by the previous light's (on the frames
+of a second mapper whose environment changes every frame and which shades its paths under the
+previous one too, its frame time beside the first's); relit every frame for a new transfer
+function, with the first scatter scalar and coverage tests and without; and the first frames
+apart (where the mapper builds its grids, and each denoiser sizes its planes and maps their pages
+where it first writes them: the first frame's, then the previous frame's and the history's on
+the second, and the relighting's on the first relit one).
 
   --volume FILE        volume (.nii, .nii.gz, .vti)
                        [/usr/share/mricron/templates/ch2.nii.gz, package mricron-data]
@@ -160,6 +163,17 @@ int main(int argc, char* argv[])
   vtkNew<vtkVolume> volume;
   volume->SetMapper(mapper);
   volume->SetProperty(property);
+  // The same frames with the environment's intensity changed every frame (1 and 1.25 in turn),
+  // the paths shaded also under the previous frame's light (RenderPreviousLighting).
+  vtkNew<vtkPathTracedVolumeMapper> relitMapper;
+  relitMapper->SetInputData(volumeData);
+  relitMapper->SetEnvironmentMapConnection(environment->GetOutputPort());
+  relitMapper->SetEnvironmentToWorldMatrix(environmentToWorld);
+  relitMapper->ProgressiveAccumulationOff();
+  relitMapper->RenderPreviousLightingOn();
+  vtkNew<vtkVolume> relitVolume;
+  relitVolume->SetMapper(relitMapper);
+  relitVolume->SetProperty(property);
 
   struct Variant
   {
@@ -169,7 +183,7 @@ int main(int argc, char* argv[])
     std::vector<double> StageMilliseconds[vtkStereoSpatioTemporalDenoiser::NumberOfStages];
     std::vector<double> FirstMilliseconds; // frames 1 to 3, apart
   };
-  Variant variants[7];
+  Variant variants[9];
   variants[0].Name = "full (D1 + D2)";
   variants[1].Name = "D1 (no D2)";
   variants[2].Name = "spatial only";
@@ -189,6 +203,11 @@ int main(int argc, char* argv[])
   variants[6].Denoiser->RelightHistoryOnTransferFunctionChangeOn();
   variants[6].Denoiser->SetClassificationScalarTolerance(0.0);
   variants[6].Denoiser->SetClassificationCoverageWidth(0.0);
+  // A change of light every other frame (T = 0.3 and 0 in turns, set in the loop), each the first
+  // of its run: relit by the previous light's ratio on relitMapper's frames, and by the frame's
+  // ratio on the others (the frames between are refinements in both).
+  variants[7].Name = "full, relit every other frame from the previous light";
+  variants[8].Name = "full, relit every other frame from the frame";
   variants[1].Denoiser->StereoBlendOff();
   variants[2].Denoiser->CrossViewSamplesOff();
   variants[2].Denoiser->TemporalAccumulationOff();
@@ -201,7 +220,7 @@ int main(int argc, char* argv[])
     }
   }
 
-  std::vector<double> renderMs;
+  std::vector<double> renderMs, relitRenderMs;
   // The first frames apart: the mapper builds its grids, each denoiser sizes its planes (about
   // 90 floats a pixel per eye), whose pages cost faults where the stages first write them: on
   // the first frame the current frame's, on the second the previous frame's and history's,
@@ -225,6 +244,13 @@ int main(int argc, char* argv[])
       height);
     const double ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    relitMapper->SetEnvironmentIntensity(frame % 2 ? 1.25 : 1.0);
+    const auto relitStart = std::chrono::steady_clock::now();
+    relitMapper->RenderStereoFrame(
+      relitVolume, views[0], projections[0], views[1], projections[1], width, height);
+    const double relitMs =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - relitStart)
+        .count();
     // The eye images with a ClassificationStamp of their own for every frame.
     vtkNew<vtkImageData> restamped[2];
     for (int eye = 0; eye < 2; ++eye)
@@ -242,8 +268,13 @@ int main(int argc, char* argv[])
     for (Variant& v : variants)
     {
       const bool newTransferFunction = &v == &variants[5] || &v == &variants[6];
-      v.Denoiser->SetInputData(0, newTransferFunction ? restamped[0] : mapper->GetEyeOutput(0));
-      v.Denoiser->SetInputData(1, newTransferFunction ? restamped[1] : mapper->GetEyeOutput(1));
+      vtkPathTracedVolumeMapper* source = &v == &variants[7] ? relitMapper.Get() : mapper.Get();
+      if (&v == &variants[7] || &v == &variants[8])
+      {
+        v.Denoiser->SetIlluminationDifference(frame % 2 == 0 ? 0.3 : 0.0);
+      }
+      v.Denoiser->SetInputData(0, newTransferFunction ? restamped[0] : source->GetEyeOutput(0));
+      v.Denoiser->SetInputData(1, newTransferFunction ? restamped[1] : source->GetEyeOutput(1));
       v.Denoiser->Update();
       if (frame < 3)
       {
@@ -265,6 +296,7 @@ int main(int argc, char* argv[])
     if (frame >= 2)
     {
       renderMs.push_back(ms);
+      relitRenderMs.push_back(relitMs);
     }
     std::cerr << "." << std::flush;
   }
@@ -282,6 +314,8 @@ int main(int argc, char* argv[])
   std::printf("%-56s %12s %12s\n", "", "median ms", "min ms");
   std::printf("%-56s %12.1f %12.1f\n", "vtkPathTracedVolumeMapper, 2 spp stereo frame",
     Median(renderMs), Minimum(renderMs));
+  std::printf("%-56s %12.1f %12.1f\n", "  the same, light changed, previous light shaded too",
+    Median(relitRenderMs), Minimum(relitRenderMs));
   for (Variant& v : variants)
   {
     std::printf("%-56s %12.1f %12.1f\n",
@@ -342,6 +376,25 @@ int main(int argc, char* argv[])
     50.0 *
       (FieldNumber(variants[5].Denoiser->GetEyeOutput(0), "MaterialChangedFraction") +
         FieldNumber(variants[5].Denoiser->GetEyeOutput(1), "MaterialChangedFraction")));
+  // Timed frames start at frame 2, so the even entries are the changes.
+  std::vector<double> relitFromPreviousLight, relitFromFrame, previousLightMore,
+    previousLightRenderMore;
+  for (std::size_t f = 0; f < variants[7].Milliseconds.size(); ++f)
+  {
+    previousLightRenderMore.push_back(relitRenderMs[f] - renderMs[f]);
+    if (f % 2 == 0)
+    {
+      relitFromPreviousLight.push_back(variants[7].Milliseconds[f]);
+      relitFromFrame.push_back(variants[8].Milliseconds[f]);
+      previousLightMore.push_back(variants[7].Milliseconds[f] - variants[8].Milliseconds[f]);
+    }
+  }
+  std::printf("\nThe light changed every frame, the paths shaded also under the previous one: the "
+              "path tracer's frame %.1f ms more (median of the frames' differences). The first "
+              "frame of a change relit by that light's ratio: median %.1f ms, by the frame's "
+              "ratio %.1f, %.1f ms more (median of the changes' differences).\n",
+    Median(previousLightRenderMore), Median(relitFromPreviousLight), Median(relitFromFrame),
+    Median(previousLightMore));
   std::printf("\nThe full denoiser costs %.1f%% of the frame it denoises.\n",
     100.0 * Median(variants[0].Milliseconds) / Median(renderMs));
   return 0;

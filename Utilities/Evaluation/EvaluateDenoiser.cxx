@@ -66,6 +66,8 @@ struct Options
   int WaveletDepthFromHistory = -1;         // the denoiser's default
   int RemodulateByHistoryAlbedo = -1;       // the denoiser's default
   int StereoAlbedoFromHistory = -1;         // the denoiser's default
+  int RenderPreviousLighting = 1;
+  double PreviousLightingRadius = -1.0;      // the denoiser's default
   double WaveletAlbedoGradientWeight = -1.0; // the denoiser's default
   int StratifiedSubpixelSamples = -1; // the mapper's default
   bool RelightOnTransferFunctionChange = false;
@@ -147,6 +149,14 @@ under the lamp, or with the new transfer function, all along.
                          1: gamma of D2's lambda is each eye's mean first scatter albedo over
                          its history; 0: the frame's own, in every denoiser [the denoiser's
                          default, 1]
+  --render-previous-lighting 0|1
+                         1: the raw frames' paths are shaded also under the previous frame's
+                         environment where it changed (vtkPathTracedVolumeMapper::
+                         SetRenderPreviousLighting), and the denoisers relight their history by
+                         the ratio of the two; 0: by the ratio of the frame to the history [1]
+  --previous-lighting-radius X
+                         that ratio's Gaussian in pixels, 0 to 64, in every denoiser [the
+                         denoiser's default, 4]
   --wavelet-albedo-gradient-weight W
                          the wavelet filter's albedo edge-stopping is scaled by 1 - W + W
                          max(g, g'), g and g' the gradient magnitudes, in every denoiser, 0 to
@@ -780,6 +790,16 @@ vtkSmartPointer<vtkImageData> WithoutClassificationStamp(vtkImageData* eye)
   return copy;
 }
 
+// A shallow copy of an eye image without "PreviousLightingRadiance", for the light switch's
+// control, whose light never changed.
+vtkSmartPointer<vtkImageData> WithoutPreviousLighting(vtkImageData* eye)
+{
+  auto copy = vtkSmartPointer<vtkImageData>::New();
+  copy->ShallowCopy(eye); // its own point data, holding the same arrays
+  copy->GetPointData()->RemoveArray("PreviousLightingRadiance");
+  return copy;
+}
+
 int main(int argc, char* argv[])
 {
   Options options;
@@ -873,6 +893,12 @@ int main(int argc, char* argv[])
     else if (arg == "--remodulate-by-history-albedo")
       options.RemodulateByHistoryAlbedo =
         holovolume::IntegerOption(program, "--remodulate-by-history-albedo", value(), 0, 1);
+    else if (arg == "--render-previous-lighting")
+      options.RenderPreviousLighting =
+        holovolume::IntegerOption(program, "--render-previous-lighting", value(), 0, 1);
+    else if (arg == "--previous-lighting-radius")
+      options.PreviousLightingRadius =
+        holovolume::NumberOption(program, "--previous-lighting-radius", value(), 0.0, 64.0);
     else if (arg == "--stereo-albedo-from-history")
       options.StereoAlbedoFromHistory =
         holovolume::IntegerOption(program, "--stereo-albedo-from-history", value(), 0, 1);
@@ -940,6 +966,8 @@ int main(int argc, char* argv[])
   }
   raw->ProgressiveAccumulationOff();
   twin->ProgressiveAccumulationOff();
+  raw->SetRenderPreviousLighting(options.RenderPreviousLighting != 0);
+  twin->SetRenderPreviousLighting(options.RenderPreviousLighting != 0);
   lampAllAlong->ProgressiveAccumulationOff();
   twin->SetSeed(15485863);
   reference->SetSamplesPerPixel(64);
@@ -1093,6 +1121,17 @@ int main(int argc, char* argv[])
   {
     std::printf("\nevery denoiser re-modulates by %s first scatter albedo\n",
       options.RemodulateByHistoryAlbedo ? "the history's mean" : "the frame's own");
+  }
+  std::printf("\nthe raw frames %s\n",
+    options.RenderPreviousLighting
+      ? "shade their paths also under the previous frame's environment where it changed, and "
+        "the denoisers relight their history by the ratio of the two"
+      : "are shaded under their own environment only; the denoisers relight their history by "
+        "the ratio of the frame to it");
+  if (options.PreviousLightingRadius >= 0.0)
+  {
+    std::printf("\nevery denoiser's ratio to the previous light takes a Gaussian of %g pixels\n",
+      options.PreviousLightingRadius);
   }
   if (options.StereoAlbedoFromHistory >= 0)
   {
@@ -1317,6 +1356,10 @@ int main(int argc, char* argv[])
           {
             run[method]->SetStereoAlbedoFromHistory(options.StereoAlbedoFromHistory != 0);
           }
+          if (options.PreviousLightingRadius >= 0.0)
+          {
+            run[method]->SetPreviousLightingRadius(options.PreviousLightingRadius);
+          }
         }
       }
       vtkNew<vtkEnvironmentSyncedLight> light, lampAllAlongLight;
@@ -1503,6 +1546,8 @@ int main(int argc, char* argv[])
               frame < switchFrame ? lampAllAlong.Get() : raw.Get();
             vtkSmartPointer<vtkImageData> eyes[2] = { source->GetEyeOutput(0),
               source->GetEyeOutput(1) };
+            eyes[0] = WithoutPreviousLighting(eyes[0]);
+            eyes[1] = WithoutPreviousLighting(eyes[1]);
             if (edit)
             {
               // The control's volume never changed its transfer function; only the raw

@@ -27,6 +27,9 @@ struct EyeBuffers
   int height = 0;
   std::vector<float> radiance, reference, position, depth, albedo, normal, gradient;
   std::vector<float> scalar; // empty unless SceneState::withScalars
+  // The same samples' radiance under the previous frame's light, 3 per pixel (empty: none);
+  // withPreviousLight() fills it.
+  std::vector<float> previousLight;
   std::vector<unsigned char> valid;
   glm::mat4 view{ 1.0f }, projection{ 1.0f };
 
@@ -43,6 +46,7 @@ struct EyeBuffers
     f.normal = this->normal.data();
     f.gradientMagnitude = this->gradient.data();
     f.firstScatterScalar = this->scalar.empty() ? nullptr : this->scalar.data();
+    f.previousLightRadiance = this->previousLight.empty() ? nullptr : this->previousLight.data();
     f.view = this->view;
     f.projection = this->projection;
     return f;
@@ -265,6 +269,25 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
       }
       out.gradient[i] = gradient;
       out.depth[i] = -(out.view * glm::vec4(hit, 1.0f)).z;
+    }
+  }
+}
+
+// Sets eye.previousLight to the radiance of the same frame (seed) under the previous
+// lighting: renderEye draws its noise independently of the light, so the samples are the same
+// and only the light differs, as a path tracer shading its paths under both environments gives.
+inline void withPreviousLight(
+  const SceneState& previousLighting, int eye, std::uint32_t seed, EyeBuffers& out)
+{
+  EyeBuffers previous;
+  renderEye(previousLighting, eye, out.width, out.height, seed, previous);
+  const std::size_t n = static_cast<std::size_t>(out.width) * out.height;
+  out.previousLight.assign(3 * n, 0.0f);
+  for (std::size_t i = 0; i < n; ++i)
+  {
+    for (int c = 0; c < 3; ++c)
+    {
+      out.previousLight[3 * i + c] = previous.radiance[4 * i + c];
     }
   }
 }

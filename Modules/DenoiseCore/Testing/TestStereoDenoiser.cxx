@@ -422,6 +422,60 @@ TEST(StereoDenoiser, RelightingRatioIsRefinedOverTheNextFrames)
   EXPECT_GT(refined, once + 0.3); // measured 34.9 and 35.6 dB
 }
 
+// The frames' samples shaded also under the previous light (EyeFrame::previousLightRadiance):
+// the history is relit by the ratio of the two, which holds the change of light without the
+// frame's noise. A second light comes on after 16 still frames and, over the next 7, the wall's
+// light changes every frame (as under a turning environment). Only the first change of such a
+// run is relit by the previous light (its ratio's errors would add up over the run, and it costs
+// more than the frame's ratio); the later ones by the frame's ratio, as without it. At T = 0 (the
+// sigmoid's delta 1: no change) the previous light is not used either: the renderer shades it on
+// every frame whose environment changed at all, a live panorama's noise too.
+TEST(StereoDenoiser, RelightingFromThePreviousLight)
+{
+  auto psnrAfterTheChanges = [](bool previousLight, float illuminationDifference)
+  {
+    hvtest::SceneState scene;
+    StereoDenoiser denoiser;
+    StereoFrame frame;
+    frame.settle(scene, denoiser, 0, 16, 0.01f);
+    std::vector<double> psnr;
+    for (std::uint32_t t = 16; t < 24; ++t)
+    {
+      const hvtest::SceneState before = scene;
+      scene.sideLight = 2.0f + 0.25f * static_cast<float>(t - 16);
+      frame.render(scene, t);
+      if (previousLight)
+      {
+        for (int e = 0; e < 2; ++e)
+        {
+          hvtest::withPreviousLight(before, e, t, frame.eyes[e]);
+        }
+      }
+      frame.denoise(denoiser, illuminationDifference);
+      psnr.push_back(meanPSNR(frame));
+    }
+    return psnr;
+  };
+  const std::vector<double> fromFrame = psnrAfterTheChanges(false, 0.65f);
+  const std::vector<double> fromPreviousLight = psnrAfterTheChanges(true, 0.65f);
+  const std::vector<double> unseenByT = psnrAfterTheChanges(false, 0.0f);
+  const std::vector<double> unseenByTFromPreviousLight = psnrAfterTheChanges(true, 0.0f);
+  for (std::size_t k = 0; k < fromFrame.size(); ++k)
+  {
+    std::cout << "frame +" << k << ": relit from the frame " << fromFrame[k]
+              << " dB, from the previous light " << fromPreviousLight[k] << " dB; at T = 0 "
+              << unseenByT[k] << " dB, from the previous light " << unseenByTFromPreviousLight[k]
+              << " dB\n";
+  }
+  // Measured 33.6 against 35.7 dB on the first change; the later ones within 0.2 dB.
+  EXPECT_GT(fromPreviousLight[0], fromFrame[0] + 1.5);
+  for (std::size_t k = 1; k < fromFrame.size(); ++k)
+  {
+    EXPECT_NEAR(fromPreviousLight[k], fromFrame[k], 0.5) << "frame +" << k;
+  }
+  EXPECT_EQ(unseenByTFromPreviousLight, unseenByT);
+}
+
 // A new transfer function after 16 still frames: the wall's checker squares take other
 // colours, the floating square turns transparent (the wall behind it shows), and the volume's
 // light changes with its opacities (here 1.5x brighter everywhere). Relit for the new
@@ -1839,6 +1893,15 @@ TEST(StereoDenoiser, BadInputIsRefused)
   frames[1] = frame.eyes[1].frame();
   EXPECT_FALSE(denoiser.denoise(frames, 2, 0.0f, out, error));
   EXPECT_NE(error.find("2 NaN or infinite"), std::string::npos) << error;
+
+  hvtest::EyeBuffers poisonedLight = frame.eyes[1];
+  poisonedLight.previousLight.assign(3 * static_cast<std::size_t>(Width) * Height, 1.0f);
+  poisonedLight.previousLight[7] = std::numeric_limits<float>::quiet_NaN();
+  frames[0] = frame.eyes[0].frame();
+  frames[1] = poisonedLight.frame();
+  // Read, and so checked, only where T says the light changed.
+  EXPECT_FALSE(denoiser.denoise(frames, 2, 0.5f, out, error));
+  EXPECT_NE(error.find("previous lighting's radiance contains 1 NaN"), std::string::npos) << error;
 
   EXPECT_FALSE(denoiser.denoise(frames, 3, 0.0f, out, error));
   EXPECT_FALSE(denoiser.denoise(nullptr, 2, 0.0f, out, error));

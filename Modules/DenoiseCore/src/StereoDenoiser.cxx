@@ -18,6 +18,7 @@
 #include <limits>
 #include <new>
 #include <sstream>
+#include <tuple>
 #include <type_traits>
 #include <utility>
 #include <vector>
@@ -186,6 +187,11 @@ struct EyeState
   int relightingAge = 0;
   int nextRelightingAge = 0;
   int olderRelightingAge = 0;
+  // Frames in a row up to the last one that T called a change of light (delta < 0.99), the value
+  // this frame sets, and the one the last commit replaced.
+  int lightChangeRun = 0;
+  int nextLightChangeRun = 0;
+  int olderLightChangeRun = 0;
 
   // Invariant: outside its row spans a surface buffer is not valid (no surface seen), so that
   // neighbour and reprojection lookups may land anywhere; inside, every buffer below is this
@@ -198,6 +204,10 @@ struct EyeState
   ColourPlanes fused;                      // after the cross-view samples
   PlaneVector<float> fusedWeight;          // raw frames that `fused` averages
   PlaneVector<float> rawLuminance;         // of `raw`, for the temporal blending's variance
+  // The frame's EyeFrame::previousLightRadiance, demodulated as `raw` is (alpha: raw's); sized
+  // on first use, as most frames do not carry it.
+  PlaneVector<glm::vec4> previousLightRaw;
+  bool hasPreviousLight = false;
   // Where each pixel's point x(k^t) lies in the previous frame of this eye, pi^{t-1}(x(k^t)):
   // continuous pixel position, view depth, and 1 if on screen (0 otherwise). Projected once,
   // with the cross-view samples, for them, the relighting ratio and the temporal blending.
@@ -237,6 +247,8 @@ struct EyeState
     this->canReplace = true;
     this->olderRelightingAge = this->relightingAge;
     this->relightingAge = this->nextRelightingAge;
+    this->olderLightChangeRun = this->lightChangeRun;
+    this->lightChangeRun = this->nextLightChangeRun;
     this->previousView = this->view;
     this->previousViewProjection = this->viewProjection;
     this->hasPrevious = true;
@@ -255,6 +267,7 @@ struct EyeState
     this->hasPrevious = this->hadPrevious;
     this->canReplace = false;
     this->relightingAge = this->olderRelightingAge;
+    this->lightChangeRun = this->olderLightChangeRun;
   }
 
   // Calls visit(plane) for every plane of one value per pixel (a PlaneVector of any element
@@ -361,6 +374,9 @@ struct EyeState
     this->relightingAge = 0;
     this->nextRelightingAge = 0;
     this->olderRelightingAge = 0;
+    this->lightChangeRun = 0;
+    this->nextLightChangeRun = 0;
+    this->olderLightChangeRun = 0;
   }
 };
 
@@ -1345,7 +1361,8 @@ struct StereoDenoiser::Internals
   // (materialTest), pixels whose first scatter scalar differs from all of the history's taps
   // by more than classificationScalarTolerance, or whose coverage moved
   // (coverageMovedSinceHistory), drop their history first; returns how many.
-  std::int64_t computeRelightingRatio(EyeState& eye, const DenoiserParameters& p, bool materialTest)
+  std::int64_t computeRelightingRatio(EyeState& eye, const DenoiserParameters& p, bool materialTest,
+    float gain, float previousLightWeight)
   {
     const int width = eye.width;
     const int height = eye.height;
@@ -1443,11 +1460,17 @@ struct StereoDenoiser::Internals
         });
     }
     const int reach = static_cast<int>(std::ceil(3.0f * p.relightingRadius));
+    const int correlatedReach =
+      std::max(static_cast<int>(std::ceil(3.0f * p.previousLightingRadius)), 0);
+    const int regionReach = eye.hasPreviousLight ? std::max(reach, correlatedReach) : reach;
     const cv::Rect region(
-      cv::Point(std::max(columnBegin - reach, 0), std::max(rowBegin - reach, 0)),
-      cv::Point(std::min(columnEnd + reach, width), std::min(rowEnd + reach, height)));
+      cv::Point(std::max(columnBegin - regionReach, 0), std::max(rowBegin - regionReach, 0)),
+      cv::Point(std::min(columnEnd + regionReach, width), std::min(rowEnd + regionReach, height)));
     // Planes: current RGB, history RGB, m, and the current luminance and its square (for the
     // fine-scale test's variance).
+    // With the previous light's radiance also: the frame's own radiance (without its
+    // cross-view samples, which the previous light's has not) and the previous light's, and
+    // where both are (the pixels that see a surface).
     enum
     {
       CurrentRed = 0,
@@ -1455,12 +1478,17 @@ struct StereoDenoiser::Internals
       Mask = 6,
       CurrentLuminance = 7,
       CurrentLuminanceSquare = 8,
-      PlaneCount = 9
+      OwnRed = 9,
+      PreviousLightRed = 12,
+      SurfaceMask = 15,
+      PlaneCount = 16
     };
+    const bool correlated = eye.hasPreviousLight;
+    const int planeCount = correlated ? PlaneCount : OwnRed;
     cv::Mat planes[PlaneCount];
-    for (cv::Mat& plane : planes)
+    for (int k = 0; k < planeCount; ++k)
     {
-      plane = cv::Mat::zeros(region.height, region.width, CV_32F);
+      planes[k] = cv::Mat::zeros(region.height, region.width, CV_32F);
     }
     this->forRows(1, region.height,
       [&](int, int row) HV_WIDEST_VECTORS
@@ -1563,11 +1591,20 @@ struct StereoDenoiser::Internals
         for (int x = span.begin; x < span.end; ++x)
         {
           const std::size_t i = static_cast<std::size_t>(y) * width + x;
+          const int column = x - region.x;
+          if (correlated && eye.surface.valid[i] > 0.0f)
+          {
+            for (int c = 0; c < 3; ++c)
+            {
+              planes[OwnRed + c].at<float>(row, column) = eye.raw[i][c];
+              planes[PreviousLightRed + c].at<float>(row, column) = eye.previousLightRaw[i][c];
+            }
+            planes[SurfaceMask].at<float>(row, column) = 1.0f;
+          }
           if (!(eye.surface.valid[i] > 0.0f) || !(historyValid[x - span.begin] > 0.0f))
           {
             continue;
           }
-          const int column = x - region.x;
           for (int c = 0; c < 3; ++c)
           {
             planes[CurrentRed + c].at<float>(row, column) = eye.fused.channel[c][i];
@@ -1584,15 +1621,23 @@ struct StereoDenoiser::Internals
     // Gaussian of 1 pixel (5x5 taps, about 4 pi pixels' worth of samples), over history RGB,
     // m and the current luminance and its square.
     const double sigma = p.relightingRadius;
+    const double correlatedSigma = p.previousLightingRadius;
     constexpr double fineSigma = 1.0;
     cv::Mat coarse[PlaneCount], fine[PlaneCount];
     // One plane per task: OpenCV runs each of these blurs on one thread, and the nine of an eye
     // took 8.5 ms of a 1440x936 frame's relighting, 4.2 on two threads this way.
-    this->parallelFor(PlaneCount,
+    this->parallelFor(planeCount,
       [&](std::int64_t begin, std::int64_t end)
       {
         for (int k = static_cast<int>(begin); k < static_cast<int>(end); ++k)
         {
+          if (k >= OwnRed)
+          {
+            cv::GaussianBlur(planes[k], coarse[k],
+              cv::Size(2 * correlatedReach + 1, 2 * correlatedReach + 1), correlatedSigma,
+              correlatedSigma, cv::BORDER_CONSTANT);
+            continue;
+          }
           if (k < CurrentLuminance)
           {
             cv::GaussianBlur(planes[k], coarse[k], cv::Size(2 * reach + 1, 2 * reach + 1), sigma,
@@ -1615,20 +1660,46 @@ struct StereoDenoiser::Internals
         float* historyPlanes =
           eye.relitPlanes.data() + eye.relitRowOffset[static_cast<std::size_t>(y)];
         const float* historyValid = historyPlanes + temporal::HistoryValid * count;
-        // The ratio of the pixel in `column`, (1, 1, 1, 1) where nothing relights it.
-        auto ratioAt = [&](int column)
+        // The ratio of the pixel in `column`, (1, 1, 1, 1) where nothing relights it. Inlined
+        // into each of the row loop's clones, which check-clone-calls requires.
+        auto ratioAt = [&](int column) HV_ALWAYS_INLINE
         {
           glm::vec4 ratio(1.0f);
           if (coarse[Mask].at<float>(row, column) < 1e-3f)
           {
             return ratio; // no pixel with a history nearby: nothing to relight
           }
+          // Without the previous light's radiance the blending applies `gain` of the frame's
+          // ratio to the history (1 - delta where T says the light changed, less on the
+          // refinements). With it, the change it measures is certain and applied whole, and the
+          // frame's ratio to the history, its residual, with (1 - previousLightingWeight) gain:
+          // what the previous light's ratio leaves out (the shading the Gaussian blurs, the
+          // history's own error) is corrected that much every frame instead of only by new
+          // frames. The gains are then in the ratio, and the blending applies it as it is.
+          const bool fromPreviousLight =
+            correlated && coarse[SurfaceMask].at<float>(row, column) >= 1e-3f;
+          const float residualGain = (1.0f - previousLightWeight) * gain;
           for (int c = 0; c < 3; ++c)
           {
+            // A channel with (almost) no light in the history has no ratio to speak of.
             const float old = coarse[HistoryRed + c].at<float>(row, column);
             const float now = coarse[CurrentRed + c].at<float>(row, column);
-            // A channel with (almost) no light in the history has no ratio to speak of.
-            ratio[c] = old > 1e-8f ? clampf(now / old, 1.0f / 64.0f, 64.0f) : 1.0f;
+            const float toHistory = old > 1e-8f ? clampf(now / old, 1.0f / 64.0f, 64.0f) : 1.0f;
+            if (!correlated)
+            {
+              ratio[c] = toHistory;
+              continue;
+            }
+            if (!fromPreviousLight)
+            {
+              ratio[c] = 1.0f + gain * (toHistory - 1.0f);
+              continue;
+            }
+            const float previous = coarse[PreviousLightRed + c].at<float>(row, column);
+            const float own = coarse[OwnRed + c].at<float>(row, column);
+            const float toPreviousLight =
+              previous > 1e-8f ? clampf(own / previous, 1.0f / 64.0f, 64.0f) : 1.0f;
+            ratio[c] = toPreviousLight + residualGain * (toHistory - toPreviousLight);
           }
           // Does the relit history agree with this frame at the fine scale? Both means over
           // the same pixels, so texture and edges cancel; what differs beyond the current
@@ -1720,6 +1791,7 @@ void StereoDenoiser::reset()
     eye.hasPrevious = false;
     eye.canReplace = false;
     eye.relightingAge = 0;
+    eye.lightChangeRun = 0;
     for (PlaneVector<float>* statistic : eye.history.statistics())
     {
       std::fill(statistic->begin(), statistic->end(), 0.0f);
@@ -1881,14 +1953,51 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
         nonFinite += bad;
       }
     });
-  if (nonFinite.load() > 0)
+  // The previous light's radiance is read only where T says the light changed (see
+  // relightFromPreviousLighting): a renderer gives it on every frame whose environment changed
+  // at all, a live panorama's noise too, and checking it there would cost every such frame.
+  const bool lightChanged = p.temporalAccumulation && p.relightFromPreviousLighting &&
+    temporalGate(illuminationDifference, p.sigmoidSteepness, p.sigmoidCentre) < 0.99f;
+  std::atomic<std::int64_t> nonFinitePrevious(0);
+  if (lightChanged &&
+    (eyes[0].previousLightRadiance || (eyeCount == 2 && eyes[1].previousLightRadiance)))
   {
-    std::ostringstream message;
-    message << "The radiance contains " << nonFinite.load()
-            << " NaN or infinite values; the renderer produced invalid samples. The history "
-               "was kept; fix the input (e.g. the transfer function or the environment map).";
-    error = message.str();
-    return false;
+    impl.forRows(eyeCount, height,
+      [&](int e, int y) HV_WIDEST_VECTORS
+      {
+        if (!eyes[e].previousLightRadiance)
+        {
+          return;
+        }
+        const float* __restrict row =
+          eyes[e].previousLightRadiance + 3 * static_cast<std::size_t>(y) * width;
+        std::int64_t bad = 0;
+        for (std::size_t i = 0; i < 3 * static_cast<std::size_t>(width); ++i)
+        {
+          bad += std::fabs(row[i]) <= std::numeric_limits<float>::max() ? 0 : 1;
+        }
+        if (bad)
+        {
+          nonFinitePrevious += bad;
+        }
+      });
+  }
+  for (const auto& [count, what, fix] :
+    { std::make_tuple(nonFinitePrevious.load(), "previous lighting's radiance",
+        "the environment map) or leave the buffer out"),
+      std::make_tuple(
+        nonFinite.load(), "radiance", "the transfer function or the environment map)") })
+  {
+    if (count > 0)
+    {
+      std::ostringstream message;
+      message << "The " << what << " contains " << count
+              << " NaN or infinite values; the renderer produced invalid samples. The history "
+                 "was kept; fix the input (e.g. "
+              << fix << ".";
+      error = message.str();
+      return false;
+    }
   }
 
   impl.reportProgress(0.0);
@@ -1931,8 +2040,20 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
     {
       eye.hasPrevious = false;
       eye.relightingAge = 0;
+      eye.lightChangeRun = 0;
     }
     eye.surface.hasScalar = eyes[e].firstScatterScalar != nullptr;
+    // The previous light's ratio relights the first frame of a change (T's delta below 0.99 after
+    // a frame where it was not) and no other: it keeps whatever error the history has and adds its
+    // own, which over a run of changes add up, where the frame's ratio starts from the frame each
+    // time (previousLightingWeight). Nor on the frame of a new transfer function, whose previous
+    // light was shaded with the new one.
+    eye.hasPreviousLight = eyes[e].previousLightRadiance != nullptr && lightChanged &&
+      eye.lightChangeRun == 0 && !newClassification && canRelight && eye.hasPrevious;
+    if (eye.hasPreviousLight)
+    {
+      eye.previousLightRaw.resize(static_cast<std::size_t>(width) * height);
+    }
     eye.surface.hasScalarAnchor = false; // set by the frame of a new transfer function
     eye.view = eyes[e].view;
     eye.viewProjection = eyes[e].projection * eyes[e].view;
@@ -2075,6 +2196,18 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
           : radiance;
         eye.raw[i] = raw;
         eye.rawLuminance[i] = luminance(glm::vec3(raw));
+      }
+      if (eye.hasPreviousLight)
+      {
+        for (int k = 0; k < count; ++k)
+        {
+          const std::size_t i = row + k;
+          const float* r = f.previousLightRadiance + 3 * i;
+          const glm::vec4 radiance(r[0], r[1], r[2], f.radiance[4 * i + 3]);
+          eye.previousLightRaw[i] = (own[k] && p.demodulateAlbedo)
+            ? demodulate(radiance, glm::vec3(albedoRed[k], albedoGreen[k], albedoBlue[k]))
+            : radiance;
+        }
       }
     });
   // Silhouette pixels where no sample scattered this frame borrow a neighbour's surface, so
@@ -2444,6 +2577,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
   {
     EyeState& eye = impl.eyes[e];
     eye.nextRelightingAge = 0;
+    eye.nextLightChangeRun = 0;
     if (!canRelight || !eye.hasPrevious)
     {
       continue;
@@ -2453,6 +2587,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       relightEye[e] = true;
       relightingGain[e] = 1.0f - gate;
       eye.nextRelightingAge = p.relightingRefinementFrames > 0 ? 1 : 0;
+      eye.nextLightChangeRun = eye.lightChangeRun + 1;
     }
     else if (eye.relightingAge > 0)
     {
@@ -2463,7 +2598,12 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
     }
     if (relightEye[e])
     {
-      materialChanged[e] = impl.computeRelightingRatio(eye, p, newClassification);
+      materialChanged[e] = impl.computeRelightingRatio(
+        eye, p, newClassification, relightingGain[e], p.previousLightingWeight);
+      if (eye.hasPreviousLight)
+      {
+        relightingGain[e] = 1.0f; // the ratio holds its gains (computeRelightingRatio)
+      }
     }
   }
   for (int e = 0; e < eyeCount; ++e)

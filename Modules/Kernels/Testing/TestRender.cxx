@@ -96,6 +96,16 @@ std::vector<float> skyWithPatch(
   }
   return rgb;
 }
+
+// A directional light from the upper left besides the environment, for the tests of what
+// shadow rays and light sampling do.
+void addDirectionalLight(hv::SceneView& scene)
+{
+  scene.lightCount = 1;
+  scene.lights[0].type = hv::DirectionalLight;
+  scene.lights[0].toLight = glm::normalize(glm::vec3(-1, 2, 1));
+  scene.lights[0].intensity = glm::vec3(0.6f, 0.6f, 0.5f);
+}
 }
 
 // Acceptance criterion (white furnace): a non-absorbing medium under a uniform environment of
@@ -546,10 +556,7 @@ TEST(Render, SecondaryRayRouletteIsUnbiased)
   hv::SceneView scene = furnaceScene(grid, environment);
   scene.maximumBounces = 1;
   scene.anisotropy = 0.3f;
-  scene.lightCount = 1;
-  scene.lights[0].type = hv::DirectionalLight;
-  scene.lights[0].toLight = glm::normalize(glm::vec3(-1, 2, 1));
-  scene.lights[0].intensity = glm::vec3(0.6f, 0.6f, 0.5f);
+  addDirectionalLight(scene);
   const hv::EyeView eye =
     makeEye(glm::lookAt(glm::vec3(0.0f, 0.3f, 2.5f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
       glm::perspective(glm::radians(30.0f), 1.0f, 0.1f, 10.0f), 32, 32);
@@ -672,4 +679,140 @@ TEST(Render, StratifiedSubpixelSamplesResolveTheSilhouetteSooner)
   EXPECT_LT(stratifiedRms, 0.6 * uniformRms);
   EXPECT_LT(frameSquares[1], 1.1 * frameSquares[0]);
   EXPECT_NEAR(stratifiedError.mean(), 0.0, 5.0 * stratifiedError.standardError());
+}
+
+namespace
+{
+// Renders the pixels around the ball's centre under `now` with `before` as the previous
+// environment, and checks the estimate of the light under `before` against a render under it:
+// unbiased (paired per pixel, as above), the current light's image the same as without it,
+// and a change of light from the same paths whose
+// variance is at most maximumVarianceRatio of that from two independent renders.
+void checkPreviousLight(const char* label, const hv::SceneView& scene,
+  const hv::EnvironmentMap& now, const hv::EnvironmentMap& before, const hv::EyeView& eye,
+  double maximumVarianceRatio)
+{
+  hv::SceneView switched = scene;
+  switched.environment = now.view();
+  switched.previousEnvironment = before.view();
+  switched.shadePreviousEnvironment = true;
+  hv::SceneView old = scene;
+  old.environment = before.view();
+  hv::SceneView current = scene;
+  current.environment = now.view();
+  RunningStats bias[3], oldRadiance[3], correlated[3], independent[3];
+  int changedByShading = 0;
+  for (int y = 10; y < 22; ++y)
+  {
+    for (int x = 10; x < 22; ++x)
+    {
+      const hv::PixelResult shaded = hv::renderPixel(switched, eye, x, y, 0u, 1u, 99u, 1024);
+      const hv::PixelResult reference = hv::renderPixel(old, eye, x, y, 0u, 2u, 99u, 1024);
+      const hv::PixelResult alone = hv::renderPixel(current, eye, x, y, 0u, 1u, 99u, 1024);
+      changedByShading += shaded.radiance == alone.radiance ? 0 : 1;
+      for (int c = 0; c < 3; ++c)
+      {
+        bias[c].add(shaded.previousLightRadiance[c] - reference.radiance[c]);
+        oldRadiance[c].add(reference.radiance[c]);
+      }
+      // 2-spp estimates of the change of light: from the same paths, and from two renders.
+      for (std::uint32_t frame = 10; frame < 26; ++frame)
+      {
+        const hv::PixelResult a = hv::renderPixel(switched, eye, x, y, 0u, frame, 7u, 2);
+        const hv::PixelResult b = hv::renderPixel(old, eye, x, y, 0u, frame + 100u, 7u, 2);
+        for (int c = 0; c < 3; ++c)
+        {
+          correlated[c].add(a.radiance[c] - a.previousLightRadiance[c]);
+          independent[c].add(a.radiance[c] - b.radiance[c]);
+        }
+      }
+    }
+  }
+  for (int c = 0; c < 3; ++c)
+  {
+    const double mean = oldRadiance[c].mean();
+    const double varianceRatio = correlated[c].variance() / independent[c].variance();
+    if (c == 0)
+    {
+      std::printf("[ info ] %s: the previous light from the same paths %.4f against %.4f "
+                  "rendered under it (paired difference %+.5f +- %.5f); variance of a 2-spp "
+                  "change of light, same paths / independent renders: %.4f / %.4f (%.3f)\n",
+        label, mean + bias[c].mean(), mean, bias[c].mean(), bias[c].standardError(),
+        correlated[c].variance(), independent[c].variance(), varianceRatio);
+    }
+    EXPECT_NEAR(bias[c].mean(), 0.0, 5.0 * bias[c].standardError()) << label << ", channel " << c;
+    EXPECT_LT(5.0 * bias[c].standardError(), 0.04 * mean) << label << ", channel " << c;
+    // Both estimate the same change; only its noise differs.
+    EXPECT_NEAR(correlated[c].mean(), independent[c].mean(),
+      5.0 * (correlated[c].standardError() + independent[c].standardError()))
+      << label << ", channel " << c;
+    EXPECT_LT(varianceRatio, maximumVarianceRatio) << label << ", channel " << c;
+  }
+  EXPECT_EQ(changedByShading, 0) << label << ": the current light's image changed";
+}
+}
+
+// The previous environment shaded with the same paths (SceneView::shadePreviousEnvironment):
+// under an unchanged environment the two estimates are the same to the bit and the image is the
+// one rendered without them; under a turned map, and a lamp switched on besides, the second
+// estimate is unbiased for the old light and, sharing its paths with the first, differs from it
+// less than an independent render does: that difference is what a denoiser relights its history
+// with. A turn changes little of what each path sees, and most of the noise cancels; a lamp adds
+// light of its own, whose noise stays.
+TEST(Render, PreviousEnvironmentIsShadedWithTheSamePaths)
+{
+  const int width = 32, height = 16;
+  const std::vector<float> room = skyWithPatch(width, height, glm::ivec4(10, 3, 14, 6),
+    glm::vec3(6.0f, 5.0f, 3.0f), glm::vec3(0.5f, 0.6f, 0.9f));
+  std::vector<float> lampOn = room;
+  for (int row = 2; row < 4; ++row)
+  {
+    for (int column = 24; column < 26; ++column)
+    {
+      for (int c = 0; c < 3; ++c)
+      {
+        lampOn[3 * (static_cast<std::size_t>(row) * width + column) + c] += 80.0f;
+      }
+    }
+  }
+  hv::VolumeGrid grid;
+  makeBall(grid, glm::vec3(0.9f, 0.7f, 0.5f));
+  grid.setSurfaceFactor(3.0f);
+  hv::EnvironmentMap before, turned, lamp;
+  ASSERT_EQ(before.setRadiance(width, height, room), "");
+  ASSERT_EQ(turned.setRadiance(width, height, room), "");
+  ASSERT_EQ(lamp.setRadiance(width, height, lampOn), "");
+  before.setWorldToMap(glm::mat3(glm::rotate(glm::mat4(1.0f), 0.4f, glm::vec3(0, 1, 0))));
+  for (hv::EnvironmentMap* now : { &turned, &lamp })
+  {
+    now->setWorldToMap(glm::mat3(glm::rotate(glm::mat4(1.0f), 0.5f, glm::vec3(0, 1, 0))));
+  }
+  hv::SceneView scene = furnaceScene(grid, turned);
+  scene.maximumBounces = 3;
+  scene.anisotropy = 0.3f;
+  addDirectionalLight(scene);
+  const hv::EyeView eye =
+    makeEye(glm::lookAt(glm::vec3(0.0f, 0.3f, 2.5f), glm::vec3(0.0f), glm::vec3(0, 1, 0)),
+      glm::perspective(glm::radians(30.0f), 1.0f, 0.1f, 10.0f), 32, 32);
+
+  // Unchanged: the same lookups under both, and the same random numbers as without them.
+  hv::SceneView twice = scene;
+  twice.previousEnvironment = scene.environment;
+  twice.shadePreviousEnvironment = true;
+  for (int y = 8; y < 24; ++y)
+  {
+    for (int x = 8; x < 24; ++x)
+    {
+      const hv::PixelResult once = hv::renderPixel(scene, eye, x, y, 0u, 5u, 17u, 2);
+      const hv::PixelResult both = hv::renderPixel(twice, eye, x, y, 0u, 5u, 17u, 2);
+      for (int c = 0; c < 3; ++c)
+      {
+        ASSERT_EQ(both.radiance[c], once.radiance[c]) << x << ", " << y;
+        ASSERT_EQ(both.previousLightRadiance[c], both.radiance[c]) << x << ", " << y;
+      }
+      ASSERT_EQ(once.previousLightRadiance, glm::vec3(0.0f));
+    }
+  }
+  checkPreviousLight("map turned", scene, turned, before, eye, 0.1);
+  checkPreviousLight("map turned, lamp on", scene, lamp, before, eye, 0.8);
 }

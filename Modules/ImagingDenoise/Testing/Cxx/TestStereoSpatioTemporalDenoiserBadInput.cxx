@@ -93,6 +93,30 @@ int TestStereoSpatioTemporalDenoiserBadInput(int, char*[])
   denoiser->SetInputData(1, doubleScalars);
   ExpectError(denoiser, "\"FirstScatterScalar\" array must be float with 1 component(s)");
 
+  // The previous light's radiance with four components, and with an infinity.
+  auto rgbaPreviousLight = Copy(right);
+  vtkNew<vtkFloatArray> rgba;
+  rgba->SetName("PreviousLightingRadiance");
+  rgba->SetNumberOfComponents(4);
+  rgba->SetNumberOfTuples(rgbaPreviousLight->GetNumberOfPoints());
+  rgba->Fill(0.0);
+  rgbaPreviousLight->GetPointData()->AddArray(rgba);
+  denoiser->SetInputData(1, rgbaPreviousLight);
+  ExpectError(denoiser, "\"PreviousLightingRadiance\" array must be float with 3 component(s)");
+  auto poisonedPreviousLight = Copy(right);
+  vtkNew<vtkFloatArray> previousLight;
+  previousLight->SetName("PreviousLightingRadiance");
+  previousLight->SetNumberOfComponents(3);
+  previousLight->SetNumberOfTuples(poisonedPreviousLight->GetNumberOfPoints());
+  previousLight->Fill(0.1);
+  previousLight->SetComponent(7, 2, std::numeric_limits<float>::infinity());
+  poisonedPreviousLight->GetPointData()->AddArray(previousLight);
+  denoiser->SetInputData(1, poisonedPreviousLight);
+  // Read, and so checked, only where T says the light changed.
+  denoiser->SetIlluminationDifference(0.5);
+  ExpectError(denoiser, "previous lighting's radiance contains 1 NaN or infinite values");
+  denoiser->SetIlluminationDifference(0.0);
+
   // A missing matrix.
   auto noMatrix = Copy(right);
   noMatrix->GetFieldData()->RemoveArray("ProjectionMatrix");

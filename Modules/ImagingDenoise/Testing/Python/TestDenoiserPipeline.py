@@ -142,6 +142,48 @@ class DenoiserPipelineTest(unittest.TestCase):
             denoisers.append(denoiser)
         self.assert_same_first_frame_then_different(mapper, volume, denoisers)
 
+    def test_relight_from_previous_lighting(self):
+        """The mapper's PreviousLightingRadiance reaches the kernels: a denoiser that relights
+        by it and one that does not give the same first frame, and after the environment's
+        intensity changed (T = 0.5) different ones; the one that does not use it gives what a
+        denoiser fed the frames without the array gives."""
+        mapper, volume = sphere_scene()
+        mapper.SetRenderPreviousLighting(True)
+        default = holovolume.vtkStereoSpatioTemporalDenoiser()
+        self.assertTrue(default.GetRelightFromPreviousLighting())
+        self.assertEqual(default.GetPreviousLightingRadius(), 4.0)
+        self.assertEqual(default.GetPreviousLightingWeight(), 1.0)
+        self.assertIn("PreviousLightingWeight: 1", str(default))
+        denoisers = [holovolume.vtkStereoSpatioTemporalDenoiser() for _ in range(3)]
+        denoisers[1].SetRelightFromPreviousLighting(False)
+        left, right = eye_matrices(-1.0), eye_matrices(1.0)
+        for frame, (intensity, t) in enumerate(((1.0, 0.0), (1.0, 0.0), (2.0, 0.5))):
+            mapper.SetEnvironmentIntensity(intensity)
+            self.assertEqual(mapper.RenderStereoFrame(volume, left[0], left[1], right[0],
+                                                      right[1], 40, 40), 1)
+            eyes = [mapper.GetEyeOutput(e) for e in (0, 1)]
+            self.assertEqual(eyes[0].GetPointData().HasArray("PreviousLightingRadiance"),
+                             1 if frame == 2 else 0)
+            stripped = []
+            for eye in eyes:
+                copy = vtkImageData()
+                copy.ShallowCopy(eye)
+                copy.GetPointData().RemoveArray("PreviousLightingRadiance")
+                stripped.append(copy)
+            for k, denoiser in enumerate(denoisers):
+                denoiser.SetIlluminationDifference(t)
+                inputs = stripped if k == 2 else eyes
+                denoiser.SetLeftEyeData(inputs[0])
+                denoiser.SetRightEyeData(inputs[1])
+                denoiser.Update()
+            for eye in (0, 1):
+                used, unused, without = (radiance_values(d, eye) for d in denoisers)
+                self.assertEqual(unused, without)
+                if frame < 2:
+                    self.assertEqual(used, unused)
+                else:
+                    self.assertNotEqual(used, unused)
+
     def test_remodulate_by_history_albedo(self):
         """RemodulateByHistoryAlbedo and HistoryAlbedoGradients reach the kernels: on a first
         frame the mean albedo is the frame's, and re-modulation by either gives the same

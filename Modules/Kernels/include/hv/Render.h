@@ -26,6 +26,16 @@ struct SceneView
   VolumeView volume;
   ClippingPlanes clipping;
   EnvironmentView environment;
+  // The previous frame's environment, where it differs from this frame's (a new map, rotation,
+  // intensity): each path is then also shaded under it, with the same random numbers, into
+  // PixelResult::previousLightRadiance. The two estimates share the paths, the scattering and
+  // the shadow rays, so their difference has only the variance of the change of light; a
+  // denoiser's history, converged under the old light, is relit by their ratio far more exactly
+  // than by the ratio of one noisy frame to the history (the correlated samples of A-SVGF's
+  // temporal gradients, Schied et al. 2018, for every sample). The renderer's lights count as
+  // unchanged: they add the same to both.
+  EnvironmentView previousEnvironment;
+  bool shadePreviousEnvironment = false;
   PointLightView lights[MaximumLights];
   int lightCount = 0;
   int model = PathTraced;
@@ -54,6 +64,9 @@ struct SceneView
 struct PixelResult
 {
   glm::vec4 radiance = glm::vec4(0.0f);
+  // With SceneView::shadePreviousEnvironment: the same paths' radiance under the previous
+  // environment (premultiplied like radiance); 0 otherwise.
+  glm::vec3 previousLightRadiance = glm::vec3(0.0f);
   glm::vec3 firstScatterPosition = glm::vec3(0.0f);
   float depth = 0.0f;
   glm::vec3 albedo = glm::vec3(0.0f);
@@ -148,12 +161,24 @@ HV_FUNCTION bool survivesRoulette(float survival, Pcg32& rng)
 // Monte-Carlo path tracing of the volume (radiative transfer equation with delta tracking,
 // next-event estimation, and multiple importance sampling between the environment and the
 // phase function / BRDF). Returns the radiance along the ray; `covered` tells whether the
-// primary ray had a real collision.
+// primary ray had a real collision. With scene.shadePreviousEnvironment, previousRadiance
+// receives the same path's radiance under scene.previousEnvironment: every environment term is
+// evaluated under both maps with this map's sampling densities, MIS weights and roulette. Those
+// are the same estimator's choices for both, and the phase function / BRDF sampling reaches
+// every direction, so the second estimate is unbiased for the old light too, and the first is the
+// same as without it. Where a bright source of the old environment is dark in this one (a lamp
+// switched off, a sun that moved), this map's light sampling seldom points at it and only the
+// phase function / BRDF sampling reaches it, rarely and with a large weight: the estimate of the
+// old light is then unbiased but skewed. (Sampling light from a mixture of both maps' densities
+// removed the skew, but added noise to the current image under a lamp switched on: on the head
+// MRI's light switch the full denoiser lost 0.08 dB; Documentation/Denoising.md.)
 HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::vec3 direction,
-  float tMax, Pcg32& rng, FirstScatter& first, bool& covered)
+  float tMax, Pcg32& rng, FirstScatter& first, bool& covered, glm::vec3& previousRadiance)
 {
   const VolumeView& volume = scene.volume;
+  const bool shadePrevious = scene.shadePreviousEnvironment;
   glm::vec3 radiance(0.0f);
+  previousRadiance = glm::vec3(0.0f);
   glm::vec3 throughput(1.0f);
   float previousDirectionalPdf = 0.0f;
   covered = false;
@@ -174,6 +199,10 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
         if (scene.environmentVisible)
         {
           radiance += scene.environment.evaluate(direction);
+          if (shadePrevious)
+          {
+            previousRadiance += scene.previousEnvironment.evaluate(direction);
+          }
         }
       }
       else
@@ -181,8 +210,12 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
         // The environment reached by phase/BRDF sampling, weighted against light sampling.
         float lightPdf;
         const glm::vec3 environmentRadiance = scene.environment.evaluate(direction, lightPdf);
-        radiance +=
-          throughput * powerHeuristic(previousDirectionalPdf, lightPdf) * environmentRadiance;
+        const glm::vec3 weighted = throughput * powerHeuristic(previousDirectionalPdf, lightPdf);
+        radiance += weighted * environmentRadiance;
+        if (shadePrevious)
+        {
+          previousRadiance += weighted * scene.previousEnvironment.evaluate(direction);
+        }
       }
       break;
     }
@@ -231,8 +264,10 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
           meanLevel > 0.0f ? secondaryRaySurvival(scene, luminance(unoccluded) / meanLevel) : 1.0f;
         if (survivesRoulette(survival, rng))
         {
-          radiance +=
+          const glm::vec3 contribution =
             unoccluded * (transmittanceTowards(scene, position, toLight, distance, rng) / survival);
+          radiance += contribution;
+          previousRadiance += contribution; // the renderer's lights count as unchanged
         }
       }
     }
@@ -258,8 +293,12 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
           const float transmittance = transmittanceTowards(scene, position, toLight, Infinity, rng);
           if (transmittance > 0.0f)
           {
-            radiance +=
-              throughput * scene.environment.radianceAt(uv) * (weight * transmittance / survival);
+            const glm::vec3 weighted = throughput * (weight * transmittance / survival);
+            radiance += weighted * scene.environment.radianceAt(uv);
+            if (shadePrevious)
+            {
+              previousRadiance += weighted * scene.previousEnvironment.evaluate(toLight);
+            }
           }
         }
       }
@@ -299,7 +338,12 @@ HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::v
         if (!(makeIndexRay(volume, scene.clipping, position, next, RayEpsilon, Infinity, escape) &&
               sampleFreeFlight(volume, escape, rng, tUnused)))
         {
-          radiance += throughput * scene.environment.radianceAt(uv) * (weight / survival);
+          const glm::vec3 weighted = throughput * (weight / survival);
+          radiance += weighted * scene.environment.radianceAt(uv);
+          if (shadePrevious)
+          {
+            previousRadiance += weighted * scene.previousEnvironment.evaluate(next);
+          }
         }
       }
       break;
@@ -496,7 +540,7 @@ HV_FUNCTION PixelResult renderPixel(const SceneView& scene, const EyeView& eye, 
   const SubpixelSequence subpixels = scene.stratifiedSubpixelSamples
     ? makeSubpixelSequence(pixelIndex, eyeIndex, seed)
     : SubpixelSequence{ 0u, 0u };
-  glm::vec3 sum(0.0f);
+  glm::vec3 sum(0.0f), previousSum(0.0f);
   float coverage = 0.0f;
   for (int s = 0; s < samplesPerPixel; ++s)
   {
@@ -522,7 +566,9 @@ HV_FUNCTION PixelResult renderPixel(const SceneView& scene, const EyeView& eye, 
     if (scene.model == PathTraced)
     {
       bool covered;
-      sum += tracePath(scene, origin, direction, length, rng, first, covered);
+      glm::vec3 previous;
+      sum += tracePath(scene, origin, direction, length, rng, first, covered, previous);
+      previousSum += previous;
       coverage += covered ? 1.0f : 0.0f;
     }
     else
@@ -544,6 +590,10 @@ HV_FUNCTION PixelResult renderPixel(const SceneView& scene, const EyeView& eye, 
   }
   const float inverseCount = 1.0f / static_cast<float>(samplesPerPixel);
   result.radiance = glm::vec4(sum * inverseCount, coverage * inverseCount);
+  if (scene.shadePreviousEnvironment)
+  {
+    result.previousLightRadiance = previousSum * inverseCount;
+  }
   if (scene.environmentVisible)
   {
     result.radiance.w = 1.0f;

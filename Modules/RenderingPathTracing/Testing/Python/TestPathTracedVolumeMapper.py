@@ -79,6 +79,32 @@ class PathTracedVolumeMapperTest(unittest.TestCase):
                                 for i in range(radiance.GetNumberOfTuples()) for c in range(4)))
         self.assertEqual(mapper.GetFrameIndex(), 1)
 
+    def test_previous_lighting(self):
+        source, mapper, volume = make_scene()
+        mapper.SetRenderPreviousLighting(True)
+        mapper.ProgressiveAccumulationOff()
+        left = eye_matrices(-1.0, 1.0)
+        right = eye_matrices(1.0, 1.0)
+
+        def render(intensity):
+            mapper.SetEnvironmentIntensity(intensity)
+            self.assertEqual(mapper.RenderStereoFrame(volume, left[0], left[1], right[0],
+                                                      right[1], 24, 24), 1)
+            return mapper.GetEyeOutput(1).GetPointData()
+
+        self.assertIsNone(render(1.0).GetArray("PreviousLightingRadiance"))
+        points = render(0.5)
+        previous = points.GetArray("PreviousLightingRadiance")
+        self.assertIsNotNone(previous)
+        radiance = points.GetArray("Radiance")
+        # Half the intensity, the same paths: the previous light is twice the radiance.
+        for i in range(radiance.GetNumberOfTuples()):
+            for c in range(3):
+                self.assertAlmostEqual(previous.GetComponent(i, c),
+                                       2.0 * radiance.GetComponent(i, c), places=5)
+        self.assertIsNone(render(0.5).GetArray("PreviousLightingRadiance"))
+        self.assertIn("RenderPreviousLighting: On", str(mapper))
+
     def test_display_image_and_models(self):
         source, mapper, volume = make_scene()
         view, projection = eye_matrices(0.0, 1.0)
