@@ -665,6 +665,7 @@ bool vtkPathTracedVolumeMapper::PrepareScene(
         vtkErrorWithObjectMacro(self,
           "The environment map must be a 2D vtkImageData with RGB or RGBA point "
           "scalars (linear radiance); using the uniform environment instead.");
+        internals->Environment.clearRadiance();
       }
       else
       {

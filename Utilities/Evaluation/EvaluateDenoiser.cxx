@@ -152,8 +152,9 @@ under the lamp, or with the new transfer function, all along.
   --render-previous-lighting 0|1
                          1: the raw frames' paths are shaded also under the previous frame's
                          environment where it changed (vtkPathTracedVolumeMapper::
-                         SetRenderPreviousLighting), and the denoisers relight their history by
-                         the ratio of the two; 0: by the ratio of the frame to the history [1]
+                         SetRenderPreviousLighting), and on the first frame of a change the
+                         denoisers relight their history by the ratio of the two; 0: by the
+                         ratio of the frame to the history [1]
   --previous-lighting-radius X
                          that ratio's Gaussian in pixels, 0 to 64, in every denoiser [the
                          denoiser's default, 4]
@@ -1125,7 +1126,8 @@ int main(int argc, char* argv[])
   std::printf("\nthe raw frames %s\n",
     options.RenderPreviousLighting
       ? "shade their paths also under the previous frame's environment where it changed, and "
-        "the denoisers relight their history by the ratio of the two"
+        "on the first frame of a change the denoisers relight their history by the ratio of the "
+        "two"
       : "are shaded under their own environment only; the denoisers relight their history by "
         "the ratio of the frame to it");
   if (options.PreviousLightingRadius >= 0.0)

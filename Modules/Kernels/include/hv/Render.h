@@ -171,7 +171,8 @@ HV_FUNCTION bool survivesRoulette(float survival, Pcg32& rng)
 // phase function / BRDF sampling reaches it, rarely and with a large weight: the estimate of the
 // old light is then unbiased but skewed. (Sampling light from a mixture of both maps' densities
 // removed the skew, but added noise to the current image under a lamp switched on: on the head
-// MRI's light switch the full denoiser lost 0.08 dB; Documentation/Denoising.md.)
+// MRI's light switch the full denoiser lost 0.2-0.6 dB on the frames after the lamp;
+// Documentation/Denoising.md.)
 HV_FUNCTION glm::vec3 tracePath(const SceneView& scene, glm::vec3 origin, glm::vec3 direction,
   float tMax, Pcg32& rng, FirstScatter& first, bool& covered, glm::vec3& previousRadiance)
 {

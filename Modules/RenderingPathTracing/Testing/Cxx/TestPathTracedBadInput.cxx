@@ -9,6 +9,7 @@
 #include "vtkFloatArray.h"
 #include "vtkTestErrorObserver.h"
 
+#include <algorithm>
 #include <iostream>
 #include <limits>
 
@@ -99,6 +100,32 @@ int TestPathTracedBadInput(int, char*[])
     gray->AllocateScalars(VTK_FLOAT, 1);
     scene.Mapper->SetEnvironmentMapData(gray);
     ExpectMessage(scene.Mapper, false, "RGB", [&] { scene.RenderStereo(size); });
+  }
+  {
+    // After a usable map, an unusable one: the frame is lit by the uniform environment, as the
+    // message says, not by the map held from before.
+    pathtracingtest::OffscreenScene scene;
+    scene.RenderStereo(size);
+    auto gray = vtkSmartPointer<vtkImageData>::New();
+    gray->SetDimensions(20, 10, 1);
+    gray->AllocateScalars(VTK_FLOAT, 1);
+    scene.Mapper->SetEnvironmentMapData(gray);
+    ExpectMessage(scene.Mapper, false, "RGB", [&] { scene.RenderStereo(size); });
+    pathtracingtest::OffscreenScene uniform;
+    uniform.Mapper->SetEnvironmentMapData(nullptr);
+    uniform.Mapper->SetFrameIndex(scene.Mapper->GetFrameIndex() - 1);
+    uniform.RenderStereo(size);
+    auto* lit = vtkFloatArray::SafeDownCast(
+      scene.Mapper->GetEyeOutput(0)->GetPointData()->GetArray("Radiance"));
+    auto* expected = vtkFloatArray::SafeDownCast(
+      uniform.Mapper->GetEyeOutput(0)->GetPointData()->GetArray("Radiance"));
+    if (!std::equal(
+          lit->GetPointer(0), lit->GetPointer(0) + 4 * size * size, expected->GetPointer(0)))
+    {
+      std::cerr << "FAILED: a frame under an unusable environment map is not lit by the uniform "
+                   "environment\n";
+      ++failures;
+    }
   }
   {
     pathtracingtest::OffscreenScene scene;
