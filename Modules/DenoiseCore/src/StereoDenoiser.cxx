@@ -354,6 +354,7 @@ struct EyeState
     PlaneVector<float>().swap(this->relitPlanes);
     PlaneVector<float>().swap(this->previousScalarMean);
     PlaneVector<float>().swap(this->previousCoverageMean);
+    PlaneVector<glm::vec4>().swap(this->previousLightRaw);
     for (SurfacePlanes* surfaces : { &this->surface, &this->previousSurface })
     {
       PlaneVector<float>().swap(surfaces->scalarAnchor);
