@@ -187,11 +187,11 @@ struct EyeState
   int relightingAge = 0;
   int nextRelightingAge = 0;
   int olderRelightingAge = 0;
-  // Frames in a row up to the last one that T called a change of light (delta < 0.99), the value
-  // this frame sets, and the one the last commit replaced.
-  int lightChangeRun = 0;
-  int nextLightChangeRun = 0;
-  int olderLightChangeRun = 0;
+  // Whether T called the last frame a change of light (delta < 0.99), the value this frame sets,
+  // and the one the last commit replaced.
+  bool lightChanged = false;
+  bool nextLightChanged = false;
+  bool olderLightChanged = false;
 
   // Invariant: outside its row spans a surface buffer is not valid (no surface seen), so that
   // neighbour and reprojection lookups may land anywhere; inside, every buffer below is this
@@ -247,8 +247,8 @@ struct EyeState
     this->canReplace = true;
     this->olderRelightingAge = this->relightingAge;
     this->relightingAge = this->nextRelightingAge;
-    this->olderLightChangeRun = this->lightChangeRun;
-    this->lightChangeRun = this->nextLightChangeRun;
+    this->olderLightChanged = this->lightChanged;
+    this->lightChanged = this->nextLightChanged;
     this->previousView = this->view;
     this->previousViewProjection = this->viewProjection;
     this->hasPrevious = true;
@@ -267,7 +267,7 @@ struct EyeState
     this->hasPrevious = this->hadPrevious;
     this->canReplace = false;
     this->relightingAge = this->olderRelightingAge;
-    this->lightChangeRun = this->olderLightChangeRun;
+    this->lightChanged = this->olderLightChanged;
   }
 
   // Calls visit(plane) for every plane of one value per pixel (a PlaneVector of any element
@@ -375,9 +375,9 @@ struct EyeState
     this->relightingAge = 0;
     this->nextRelightingAge = 0;
     this->olderRelightingAge = 0;
-    this->lightChangeRun = 0;
-    this->nextLightChangeRun = 0;
-    this->olderLightChangeRun = 0;
+    this->lightChanged = false;
+    this->nextLightChanged = false;
+    this->olderLightChanged = false;
   }
 };
 
@@ -1362,8 +1362,8 @@ struct StereoDenoiser::Internals
   // (materialTest), pixels whose first scatter scalar differs from all of the history's taps
   // by more than classificationScalarTolerance, or whose coverage moved
   // (coverageMovedSinceHistory), drop their history first; returns how many.
-  std::int64_t computeRelightingRatio(EyeState& eye, const DenoiserParameters& p, bool materialTest,
-    float gain, float previousLightWeight)
+  std::int64_t computeRelightingRatio(
+    EyeState& eye, const DenoiserParameters& p, bool materialTest, float gain)
   {
     const int width = eye.width;
     const int height = eye.height;
@@ -1679,7 +1679,7 @@ struct StereoDenoiser::Internals
           // frames. The gains are then in the ratio, and the blending applies it as it is.
           const bool fromPreviousLight =
             correlated && coarse[SurfaceMask].at<float>(row, column) >= 1e-3f;
-          const float residualGain = (1.0f - previousLightWeight) * gain;
+          const float residualGain = (1.0f - p.previousLightingWeight) * gain;
           for (int c = 0; c < 3; ++c)
           {
             // A channel with (almost) no light in the history has no ratio to speak of.
@@ -1792,7 +1792,7 @@ void StereoDenoiser::reset()
     eye.hasPrevious = false;
     eye.canReplace = false;
     eye.relightingAge = 0;
-    eye.lightChangeRun = 0;
+    eye.lightChanged = false;
     for (PlaneVector<float>* statistic : eye.history.statistics())
     {
       std::fill(statistic->begin(), statistic->end(), 0.0f);
@@ -2041,7 +2041,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
     {
       eye.hasPrevious = false;
       eye.relightingAge = 0;
-      eye.lightChangeRun = 0;
+      eye.lightChanged = false;
     }
     eye.surface.hasScalar = eyes[e].firstScatterScalar != nullptr;
     // The previous light's ratio relights the first frame of a change (T's delta below 0.99 after
@@ -2050,7 +2050,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
     // time (previousLightingWeight). Nor on the frame of a new transfer function, whose previous
     // light was shaded with the new one.
     eye.hasPreviousLight = eyes[e].previousLightRadiance != nullptr && lightChanged &&
-      eye.lightChangeRun == 0 && !newClassification && canRelight && eye.hasPrevious;
+      !eye.lightChanged && !newClassification && canRelight && eye.hasPrevious;
     if (eye.hasPreviousLight)
     {
       eye.previousLightRaw.resize(static_cast<std::size_t>(width) * height);
@@ -2578,7 +2578,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
   {
     EyeState& eye = impl.eyes[e];
     eye.nextRelightingAge = 0;
-    eye.nextLightChangeRun = 0;
+    eye.nextLightChanged = false;
     if (!canRelight || !eye.hasPrevious)
     {
       continue;
@@ -2588,7 +2588,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       relightEye[e] = true;
       relightingGain[e] = 1.0f - gate;
       eye.nextRelightingAge = p.relightingRefinementFrames > 0 ? 1 : 0;
-      eye.nextLightChangeRun = eye.lightChangeRun + 1;
+      eye.nextLightChanged = true;
     }
     else if (eye.relightingAge > 0)
     {
@@ -2599,8 +2599,8 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
     }
     if (relightEye[e])
     {
-      materialChanged[e] = impl.computeRelightingRatio(
-        eye, p, newClassification, relightingGain[e], p.previousLightingWeight);
+      materialChanged[e] =
+        impl.computeRelightingRatio(eye, p, newClassification, relightingGain[e]);
       if (eye.hasPreviousLight)
       {
         relightingGain[e] = 1.0f; // the ratio holds its gains (computeRelightingRatio)

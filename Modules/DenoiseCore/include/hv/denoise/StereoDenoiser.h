@@ -36,9 +36,9 @@ struct EyeFrame
   const float* firstScatterScalar = nullptr;
   // The same paths' radiance under the previous frame's light (optional; 3 per pixel,
   // premultiplied like radiance: vtkPathTracedVolumeMapper's "PreviousLightingRadiance" on a
-  // frame whose environment changed). Where T says the light changed, the history is then relit
-  // by the local ratio of radiance to it: both estimates share their paths, so the ratio holds
-  // only the change of light's noise, not the frame's (DenoiserParameters::
+  // frame whose environment changed). On the first frame of a change T sees, the history is then
+  // relit by the local ratio of radiance to it: both estimates share their paths, so the ratio
+  // holds only the change of light's noise, not the frame's (DenoiserParameters::
   // relightFromPreviousLighting).
   const float* previousLightRadiance = nullptr;
   glm::mat4 view = glm::mat4(1.0f);
