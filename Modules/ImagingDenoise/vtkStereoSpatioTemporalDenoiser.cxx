@@ -39,6 +39,11 @@ public:
   double IlluminationFrame = 0.0;
   double LastIlluminationDifference = 0.0;
   double LastMilliseconds = 0.0;
+  // Each eye's denoised image, written into the same array frame after frame while no one but
+  // this filter holds it. A new 21.6 MB array an eye at 1440x936 came from fresh pages that
+  // the kernel mapped and zeroed one fault at a time as the denoiser wrote them: 3-4 ms of a
+  // stereo pair's 64-69 ms median (Documentation/Denoising.md, "Speed").
+  vtkSmartPointer<vtkFloatArray> Denoised[2];
 };
 
 vtkStereoSpatioTemporalDenoiser::vtkStereoSpatioTemporalDenoiser()
@@ -463,10 +468,21 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
 
   vtkImageData* outputs[2] = { vtkImageData::GetData(outputVector, 0),
     vtkImageData::GetData(outputVector, 1) };
-  vtkNew<vtkFloatArray> denoised[2];
+  vtkSmartPointer<vtkFloatArray> denoised[2];
   float* targets[2] = { nullptr, nullptr };
   for (int e = 0; e < eyeCount; ++e)
   {
+    // The last frame's array is reused unless someone besides this filter and its output still
+    // holds it (a shallow copy of an earlier output keeps its frame). The executive has
+    // usually emptied the output already (PrepareForNewData).
+    denoised[e] = internals.Denoised[e];
+    const int holders =
+      2 + (denoised[e] && outputs[e]->GetPointData()->GetAbstractArray("Radiance") == denoised[e]);
+    if (!denoised[e] || denoised[e]->GetReferenceCount() > holders)
+    {
+      denoised[e] = vtkSmartPointer<vtkFloatArray>::New();
+      internals.Denoised[e] = denoised[e];
+    }
     denoised[e]->SetName("Radiance");
     denoised[e]->SetNumberOfComponents(4);
     denoised[e]->SetNumberOfTuples(inputs[e]->GetNumberOfPoints());

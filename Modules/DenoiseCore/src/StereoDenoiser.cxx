@@ -231,6 +231,9 @@ struct EyeState
   PlaneVector<float> previousScalarMean;
   // The previous frame's history's 3x3 mean coverage, for the coverage test.
   PlaneVector<float> previousCoverageMean;
+  // computeRelightingRatio's planes over the region the volume covers and their blurs, in one
+  // block kept between relit frames.
+  PlaneVector<float> relightingScratch;
 
   // This frame becomes the previous one; the buffers it replaces are kept for undoCommit().
   void commit()
@@ -354,6 +357,7 @@ struct EyeState
     PlaneVector<float>().swap(this->relitPlanes);
     PlaneVector<float>().swap(this->previousScalarMean);
     PlaneVector<float>().swap(this->previousCoverageMean);
+    PlaneVector<float>().swap(this->relightingScratch);
     PlaneVector<glm::vec4>().swap(this->previousLightRaw);
     for (SurfacePlanes* surfaces : { &this->surface, &this->previousSurface })
     {
@@ -1486,10 +1490,43 @@ struct StereoDenoiser::Internals
     };
     const bool correlated = eye.hasPreviousLight;
     const int planeCount = correlated ? PlaneCount : OwnRed;
-    cv::Mat planes[PlaneCount];
+    // The planes, and the blurs of those that are blurred, in one block kept between relit
+    // frames and reserved for the whole image once, as relitPlanes is: allocated afresh on
+    // every relit frame (cv::Mat), their pages were mapped and zeroed by the kernel one fault
+    // at a time, which took 2.5-3.7 ms of an eye's 1440x936 relit frame for the zeros and
+    // 6.7-7.0 ms for the nine blurs, against 1.4-1.9 and 4.7-5.4 in this block; with the
+    // previous light's planes too, 7.3 and 23-29 ms against 2.5-3.1 and 8.5-8.9 (timers in a
+    // trial build, Documentation/Denoising.md, "Speed").
+    const std::size_t area = static_cast<std::size_t>(region.width) * region.height;
+    // Every plane, the coarse blurs of all but the luminance and its square, the fine ones of
+    // the history through the luminance's square.
+    constexpr int MatCount =
+      PlaneCount + (PlaneCount - 2) + (CurrentLuminanceSquare - HistoryRed + 1);
+    if (eye.relightingScratch.capacity() < MatCount * area)
+    {
+      PlaneVector<float>().swap(eye.relightingScratch);
+      eye.relightingScratch.reserve(static_cast<std::size_t>(width) * height * MatCount);
+    }
+    eye.relightingScratch.resize(MatCount * area);
+    cv::Mat planes[PlaneCount], coarse[PlaneCount], fine[PlaneCount];
+    float* nextMat = eye.relightingScratch.data();
+    const auto takeMat = [&]()
+    {
+      cv::Mat mat(region.height, region.width, CV_32F, nextMat);
+      nextMat += area;
+      return mat;
+    };
     for (int k = 0; k < planeCount; ++k)
     {
-      planes[k] = cv::Mat::zeros(region.height, region.width, CV_32F);
+      planes[k] = takeMat();
+      if (k != CurrentLuminance && k != CurrentLuminanceSquare)
+      {
+        coarse[k] = takeMat();
+      }
+      if (k >= HistoryRed && k <= CurrentLuminanceSquare)
+      {
+        fine[k] = takeMat();
+      }
     }
     this->forRows(1, region.height,
       [&](int, int row) HV_WIDEST_VECTORS
@@ -1497,6 +1534,12 @@ struct StereoDenoiser::Internals
         const int y = region.y + row;
         const RowSpan& span = eye.span[static_cast<std::size_t>(y)];
         const int count = span.end - span.begin;
+        float* planeRow[PlaneCount];
+        for (int k = 0; k < planeCount; ++k)
+        {
+          planeRow[k] = planes[k].ptr<float>(row);
+          std::fill(planeRow[k], planeRow[k] + region.width, 0.0f);
+        }
         if (count <= 0)
         {
           return;
@@ -1589,33 +1632,35 @@ struct StereoDenoiser::Internals
           }
           materialChanged += changed;
         }
+        const std::size_t rowStart = static_cast<std::size_t>(y) * width;
+        const float* valid = eye.surface.valid.data() + rowStart;
         for (int x = span.begin; x < span.end; ++x)
         {
-          const std::size_t i = static_cast<std::size_t>(y) * width + x;
+          const std::size_t i = rowStart + x;
           const int column = x - region.x;
-          if (correlated && eye.surface.valid[i] > 0.0f)
+          if (correlated && valid[x] > 0.0f)
           {
             for (int c = 0; c < 3; ++c)
             {
-              planes[OwnRed + c].at<float>(row, column) = eye.raw[i][c];
-              planes[PreviousLightRed + c].at<float>(row, column) = eye.previousLightRaw[i][c];
+              planeRow[OwnRed + c][column] = eye.raw[i][c];
+              planeRow[PreviousLightRed + c][column] = eye.previousLightRaw[i][c];
             }
-            planes[SurfaceMask].at<float>(row, column) = 1.0f;
+            planeRow[SurfaceMask][column] = 1.0f;
           }
-          if (!(eye.surface.valid[i] > 0.0f) || !(historyValid[x - span.begin] > 0.0f))
+          if (!(valid[x] > 0.0f) || !(historyValid[x - span.begin] > 0.0f))
           {
             continue;
           }
           for (int c = 0; c < 3; ++c)
           {
-            planes[CurrentRed + c].at<float>(row, column) = eye.fused.channel[c][i];
-            planes[HistoryRed + c].at<float>(row, column) =
+            planeRow[CurrentRed + c][column] = eye.fused.channel[c][i];
+            planeRow[HistoryRed + c][column] =
               historyPlanes[(temporal::HistoryValue + c) * count + x - span.begin];
           }
-          planes[Mask].at<float>(row, column) = 1.0f;
+          planeRow[Mask][column] = 1.0f;
           const float current = luminance(glm::vec3(eye.fused.at(i)));
-          planes[CurrentLuminance].at<float>(row, column) = current;
-          planes[CurrentLuminanceSquare].at<float>(row, column) = current * current;
+          planeRow[CurrentLuminance][column] = current;
+          planeRow[CurrentLuminanceSquare][column] = current * current;
         }
       });
     // The coarse scale (the ratio) over current RGB, history RGB and m; the fine scale, a
@@ -1624,7 +1669,6 @@ struct StereoDenoiser::Internals
     const double sigma = p.relightingRadius;
     const double correlatedSigma = p.previousLightingRadius;
     constexpr double fineSigma = 1.0;
-    cv::Mat coarse[PlaneCount], fine[PlaneCount];
     // One plane per task: OpenCV runs each of these blurs on one thread, and the nine of an eye
     // took 8.5 ms of a 1440x936 frame's relighting, 4.2 on two threads this way.
     this->parallelFor(planeCount,

@@ -11,7 +11,9 @@
 // 3. T from port 2's field data reaches w_v: T = 0.9 leaves a gate of zero;
 // 4. re-executing after a parameter change does not count the frame twice;
 // 5. a frame reports its progress: ProgressEvent at 0 (the executive), after each of the first
-//    four stages (the denoiser) and at 1 (the executive), in order.
+//    four stages (the denoiser) and at 1 (the executive), in order;
+// 6. a shallow copy of an output keeps its frame when the next one is denoised, and an output
+//    array that no one else holds is denoised into again instead of allocated afresh.
 #include "DenoiserTestImages.h"
 #include "PathTracingTestScene.h"
 #include "vtkStereoSpatioTemporalDenoiser.h"
@@ -208,6 +210,28 @@ int TestStereoSpatioTemporalDenoiser(int, char*[])
   if (std::abs(received - 0.9) > 1e-9 || gate > 1e-6)
   {
     std::cerr << "FAILED: T from the illumination input did not drop the history\n";
+    ++failures;
+  }
+
+  // 6. An earlier frame held by a shallow copy, as a recorder or a viewer would hold it.
+  vtkNew<vtkImageData> kept;
+  kept->ShallowCopy(denoiser->GetEyeOutput(0));
+  const std::vector<float> keptFrame = Display(kept);
+  vtkDataArray* keptArray = kept->GetPointData()->GetArray("Radiance");
+  scene.RenderStereo(Size);
+  denoiser->Update();
+  vtkDataArray* nextArray = denoiser->GetEyeOutput(0)->GetPointData()->GetArray("Radiance");
+  const bool keptIntact = Display(kept) == keptFrame && nextArray != keptArray;
+  kept->Initialize();
+  scene.RenderStereo(Size);
+  denoiser->Update();
+  const bool reused = denoiser->GetEyeOutput(0)->GetPointData()->GetArray("Radiance") == nextArray;
+  std::cout << "a shallow copy of an output keeps its frame: " << keptIntact
+            << "; an array no one else holds is reused: " << reused << "\n";
+  if (!keptIntact || !reused)
+  {
+    std::cerr << "FAILED: the denoiser wrote into an array a shallow copy still held, or "
+                 "allocated a new output array although no one held the last\n";
     ++failures;
   }
   return failures == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
