@@ -207,6 +207,28 @@ class DenoiserPipelineTest(unittest.TestCase):
             denoisers.append(denoiser)
         self.assert_same_first_frame_then_different(mapper, volume, denoisers)
 
+    def test_numpy_view_of_an_output_keeps_its_frame(self):
+        """The filter denoises into the last frame's array only where no one else holds it:
+        a NumPy view of an output (which holds the array) still shows its frame after the
+        next one, and the next frame gets an array of its own."""
+        from vtkmodules.util.numpy_support import vtk_to_numpy
+        mapper, volume = sphere_scene()
+        left, right = eye_matrices(-1.0), eye_matrices(1.0)
+        denoiser = holovolume.vtkStereoSpatioTemporalDenoiser()
+        views = []
+        for _ in range(2):
+            self.assertEqual(mapper.RenderStereoFrame(volume, left[0], left[1], right[0],
+                                                      right[1], 40, 40), 1)
+            denoiser.SetLeftEyeData(mapper.GetEyeOutput(0))
+            denoiser.SetRightEyeData(mapper.GetEyeOutput(1))
+            denoiser.Update()
+            array = denoiser.GetEyeOutput(0).GetPointData().GetArray("Radiance")
+            views.append((vtk_to_numpy(array), vtk_to_numpy(array).copy()))
+        for view, copy in views:
+            self.assertTrue((view == copy).all())
+        # Two independent 2-spp frames: the second differs from the first.
+        self.assertFalse((views[0][1] == views[1][1]).all())
+
     def test_mapper_eyes_through_the_denoiser(self):
         mapper, volume = sphere_scene()
         left, right = eye_matrices(-1.0), eye_matrices(1.0)
