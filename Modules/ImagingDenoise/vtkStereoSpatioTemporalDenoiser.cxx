@@ -40,9 +40,9 @@ public:
   double LastIlluminationDifference = 0.0;
   double LastMilliseconds = 0.0;
   // Each eye's denoised image, written into the same array frame after frame while no one but
-  // this filter holds it. A new 21.6 MB array an eye at 1440x936 came from fresh pages that
-  // the kernel mapped and zeroed one fault at a time as the denoiser wrote them: 3-4 ms of a
-  // stereo pair's 64-69 ms median (Documentation/Denoising.md, "Speed").
+  // this filter holds it. A new array (21.6 MB an eye at 1440x936) came from fresh pages on the
+  // first frames, which the kernel mapped one fault at a time as the denoiser wrote them: the
+  // third frame took 93-95 ms instead of 68-82 (Documentation/Denoising.md, "Speed").
   vtkSmartPointer<vtkFloatArray> Denoised[2];
 };
 

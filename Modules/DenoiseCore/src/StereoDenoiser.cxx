@@ -1491,12 +1491,12 @@ struct StereoDenoiser::Internals
     const bool correlated = eye.hasPreviousLight;
     const int planeCount = correlated ? PlaneCount : OwnRed;
     // The planes, and the blurs of those that are blurred, in one block kept between relit
-    // frames and reserved for the whole image once, as relitPlanes is: allocated afresh on
-    // every relit frame (cv::Mat), their pages were mapped and zeroed by the kernel one fault
-    // at a time, which took 2.5-3.7 ms of an eye's 1440x936 relit frame for the zeros and
-    // 6.7-7.0 ms for the nine blurs, against 1.4-1.9 and 4.7-5.4 in this block; with the
-    // previous light's planes too, 7.3 and 23-29 ms against 2.5-3.1 and 8.5-8.9 (timers in a
-    // trial build, Documentation/Denoising.md, "Speed").
+    // frames and reserved for the whole image once, as relitPlanes is. Allocated afresh on every
+    // relit frame (cv::Mat), they cost what the C library made of them: reused memory while the
+    // VTK filter freed an output array each frame, fresh pages (a fault each) once it reused
+    // them, when an eye's 1440x936 relit frame spent 2.5-3.7 ms zeroing its planes and 6.7-7.0
+    // in their nine blurs, against 1.4-1.9 and 4.7-5.4 in this block (timers in a trial build;
+    // Documentation/Denoising.md, "Speed").
     const std::size_t area = static_cast<std::size_t>(region.width) * region.height;
     // Every plane, the coarse blurs of all but the luminance and its square, the fine ones of
     // the history through the luminance's square.
