@@ -518,6 +518,7 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
     vtkImageData* output = outputs[e];
     if (e >= eyeCount)
     {
+      internals.Denoised[e] = nullptr; // a mono frame: the right eye's array is not kept
       output->Initialize();
       continue;
     }
