@@ -2001,8 +2001,11 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
   // The previous light's radiance is read only where T says the light changed (see
   // relightFromPreviousLighting): a renderer gives it on every frame whose environment changed
   // at all, a live panorama's noise too, and checking it there would cost every such frame.
-  const bool lightChanged = p.temporalAccumulation && p.relightFromPreviousLighting &&
-    temporalGate(illuminationDifference, p.sigmoidSteepness, p.sigmoidCentre) < 0.99f;
+  // w_v's delta for this T; the gate below is it, or 0 on the frame of a new transfer function.
+  const float lightGate =
+    temporalGate(illuminationDifference, p.sigmoidSteepness, p.sigmoidCentre);
+  const bool lightChanged =
+    p.temporalAccumulation && p.relightFromPreviousLighting && lightGate < 0.99f;
   std::atomic<std::int64_t> nonFinitePrevious(0);
   if (lightChanged &&
     (eyes[0].previousLightRadiance || (eyeCount == 2 && eyes[1].previousLightRadiance)))
@@ -2108,9 +2111,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       : glm::mat4(1.0f);
   }
 
-  const float gate = p.temporalAccumulation && !newClassification
-    ? temporalGate(illuminationDifference, p.sigmoidSteepness, p.sigmoidCentre)
-    : 0.0f;
+  const float gate = p.temporalAccumulation && !newClassification ? lightGate : 0.0f;
   this->Statistics.temporalGate = gate;
   this->Statistics.newClassification = newClassification;
   const bool stereo = eyeCount == 2;
