@@ -5,18 +5,20 @@
 // written to PNG (and optionally the HDR/auxiliary buffers to .vti). The environment is an HDR
 // panorama file (still mode) or the live radiance map of a 360-degree camera (live mode,
 // --camera: vtkPanoramaVideoSource -> vtkDualFisheyeToEquirectangular ->
-// vtkEnvironmentSyncedLight -> the mapper). Later versions grow this into the full
-// mixed-reality pipeline.
+// vtkEnvironmentSyncedLight -> the mapper). With --denoise every frame is a fresh 2-spp render
+// denoised by vtkStereoSpatioTemporalDenoiser, as on the headset; --serve streams to one.
 #include "vtkHoloVolumeScene.h"
 #include "vtkHoloLensRemotingOutput.h"
 #include "vtkStereoSpatioTemporalDenoiser.h"
 
 #include "vtkCallbackCommand.h"
 #include "vtkCommand.h"
+#include "vtkDataArray.h"
 #include "vtkDualFisheyeToEquirectangular.h"
 #include "vtkEnvironmentMapReader.h"
 #include "vtkEnvironmentSyncedLight.h"
 #include "vtkExecutive.h"
+#include "vtkFieldData.h"
 #include "vtkFloatArray.h"
 #include "vtkImageAppend.h"
 #include "vtkImageData.h"
@@ -53,6 +55,7 @@
 #include <exception>
 #include <iostream>
 #include <limits>
+#include <memory>
 #include <string>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -100,6 +103,9 @@ struct Options
   std::string HeadsetPosition = "viewer";
   double RelightThreshold = 0.05;
   bool SaveEnvironment = false;
+  // --denoise: fresh 2-spp frames through the stereo denoiser instead of accumulation.
+  bool DenoiseFrames = false;
+  bool SaveFrames = false;
   // Serve mode (--serve): stream to a WebXR player instead of writing images.
   bool Serve = false;
   int Port = 8080;
@@ -180,6 +186,12 @@ Rendering
       --width N, --height N  pixels per eye [720 x 468; HoloLens 2 is 1440 x 936]
       --spp N                samples per pixel per frame [2]
       --frames N             frames accumulated progressively (not live) [32]
+      --denoise              as on the headset: every frame a fresh render, denoised
+                             by vtkStereoSpatioTemporalDenoiser with the frames before
+                             and the other eye, instead of accumulated. Live mode: a new
+                             radiance map relights the denoiser's history by its
+                             illumination difference T, and each frame's line gives the
+                             denoiser's time, history and mean radiance raw and denoised
       --bounces N            scatter events per path; 1 = single scattering [1]
       --mono                 one centred view instead of a stereo pair
       --ipd MM               interpupillary distance in volume units (mm) [64]
@@ -207,6 +219,10 @@ Streaming to a headset (Documentation/Remoting.md)
 
 Output
   -o, --output DIR           output folder [holovolume-output]
+      --save-frames          also write every frame's image (side by side for stereo)
+                             as DIR/frames/<name>-NNNN.png, with --denoise the raw and
+                             the denoised one (<name>-denoised-NNNN.png), for a video:
+                             ffmpeg -i DIR/frames/live-path-traced-denoised-%04d.png
       --exposure STOPS       display exposure [0]
       --tone-mapping NAME    aces or clamp [aces]
       --transparent          keep the alpha channel instead of a dark background
@@ -217,7 +233,8 @@ Output
   -h, --help                 this text
 
 Writes <model>-left.png, <model>-right.png and <model>-stereo.png (side by side) for
-a stereo pair, <model>.png for --mono. Live mode writes the last frame as
+a stereo pair, <model>.png for --mono; with --denoise these are the last raw frame and
+<model>-denoised-left.png and so on the denoised one. Live mode writes the last frame as
 live-<model>-left.png and so on, plus live-environment.png and live-camera-panorama.png
 with --save-environment, and prints per frame: the camera frame, the illumination
 difference T, the number of detected lights, and the time of the lighting chain and of
@@ -366,6 +383,10 @@ bool ParseArguments(int argc, char* argv[], Options& options)
     }
     else if (argument == "--no-denoiser")
       options.Denoise = false;
+    else if (argument == "--denoise")
+      options.DenoiseFrames = true;
+    else if (argument == "--save-frames")
+      options.SaveFrames = true;
     else if (argument == "--serve-seconds")
       options.ServeSeconds = std::atof(value("--serve-seconds"));
     else if (argument == "--serve-frames")
@@ -405,6 +426,19 @@ bool ParseArguments(int argc, char* argv[], Options& options)
   {
     std::cerr << "holovolume: --serve streams under an HDR panorama; live camera lighting "
                  "(--camera) is not streamed yet\n";
+    return false;
+  }
+  if (options.Serve && options.DenoiseFrames)
+  {
+    std::cerr << "holovolume: --serve denoises by default (--no-denoiser streams raw frames); "
+                 "--denoise is for the image modes\n";
+    return false;
+  }
+  if (options.DenoiseFrames &&
+    (options.Models.size() != 1 || options.Models.front() != "path-traced"))
+  {
+    std::cerr << "holovolume: --denoise denoises the path tracer's frames; leave out --model or "
+                 "pass --model path-traced\n";
     return false;
   }
   if (options.ToneMapping != "aces" && options.ToneMapping != "clamp")
@@ -482,12 +516,20 @@ void OnProgress(vtkObject* caller, unsigned long, void* clientData, void*)
   std::fflush(stderr);
 }
 
-// Display image of an eye as RGB over a dark background, or RGBA when transparent.
+// Display image of an eye as RGB over a dark background, or RGBA when transparent: the
+// mapper's own eye, or an image with "Radiance" like the mapper's (a denoised eye).
 vtkSmartPointer<vtkImageData> DisplayImage(
-  vtkPathTracedVolumeMapper* mapper, int eye, bool transparent)
+  vtkPathTracedVolumeMapper* mapper, int eye, bool transparent, vtkImageData* radiance = nullptr)
 {
   vtkNew<vtkImageData> rgba;
-  mapper->ComputeDisplayImage(eye, rgba);
+  if (radiance)
+  {
+    mapper->ComputeDisplayImage(radiance, rgba);
+  }
+  else
+  {
+    mapper->ComputeDisplayImage(eye, rgba);
+  }
   if (transparent)
   {
     return rgba.Get();
@@ -558,15 +600,141 @@ bool RenderFrame(const Scene& scene, const Options& options, const std::string& 
   return ok != 0;
 }
 
+// --denoise: every frame a fresh render (no progressive accumulation), turned into the frame
+// that is shown by the stereo denoiser, as on the headset.
+class FrameDenoiser
+{
+public:
+  FrameDenoiser(vtkPathTracedVolumeMapper* mapper, bool stereo)
+    : Mapper(mapper)
+    , Stereo(stereo)
+  {
+    mapper->ProgressiveAccumulationOff();
+    // Where the radiance map changed, the same paths are shaded under the previous one too, and
+    // the denoiser relights its history by the ratio of the two (Documentation/Denoising.md).
+    mapper->RenderPreviousLightingOn();
+    this->OnError->SetClientData(&this->LastError);
+    this->OnError->SetCallback(
+      [](vtkObject*, unsigned long, void* clientData, void* callData)
+      {
+        *static_cast<std::string*>(clientData) =
+          callData ? static_cast<const char*>(callData) : "unknown error";
+      });
+    this->Denoiser->AddObserver(vtkCommand::ErrorEvent, this->OnError);
+  }
+
+  // Denoises the mapper's last frame. T is the illumination difference between the radiance
+  // map of this frame and that of the frame before (0 when the map was kept).
+  bool Denoise(double illuminationDifference)
+  {
+    this->LastError.clear();
+    this->Denoiser->SetIlluminationDifference(illuminationDifference);
+    this->Denoiser->SetLeftEyeData(this->Mapper->GetEyeOutput(0));
+    this->Denoiser->SetRightEyeData(this->Stereo ? this->Mapper->GetEyeOutput(1) : nullptr);
+    this->Denoiser->Update();
+    if (!this->LastError.empty())
+    {
+      std::cerr << "\nholovolume: denoising failed: " << this->LastError << "\n";
+      return false;
+    }
+    ++this->Frames;
+    this->MillisecondsSum += this->Denoiser->GetLastFrameMilliseconds();
+    return true;
+  }
+
+  vtkImageData* GetEyeOutput(int eye) { return this->Denoiser->GetEyeOutput(eye); }
+  double GetLastMilliseconds() { return this->Denoiser->GetLastFrameMilliseconds(); }
+  double GetMeanMilliseconds() const
+  {
+    return this->Frames ? this->MillisecondsSum / this->Frames : 0.0;
+  }
+  // A field of the denoised left eye ("MeanHistoryLength", "TemporalWeight", ...).
+  double GetField(const char* name)
+  {
+    vtkDataArray* field = this->GetEyeOutput(0)->GetFieldData()->GetArray(name);
+    return field && field->GetNumberOfTuples() > 0 ? field->GetTuple1(0) : 0.0;
+  }
+
+private:
+  vtkPathTracedVolumeMapper* Mapper;
+  bool Stereo;
+  vtkNew<vtkStereoSpatioTemporalDenoiser> Denoiser;
+  vtkNew<vtkCallbackCommand> OnError;
+  std::string LastError;
+  int Frames = 0;
+  double MillisecondsSum = 0.0;
+};
+
+// Mean luminance (Rec. 709) of the linear "Radiance" of the eyes, over all their pixels: the
+// raw and the denoised frame compared, it tells whether the denoised frame follows the light.
+double MeanRadiance(vtkImageData* left, vtkImageData* right)
+{
+  double sum = 0.0;
+  vtkIdType count = 0;
+  for (vtkImageData* eye : { left, right })
+  {
+    auto* radiance =
+      eye ? vtkFloatArray::SafeDownCast(eye->GetPointData()->GetArray("Radiance")) : nullptr;
+    if (!radiance || radiance->GetNumberOfComponents() < 3)
+    {
+      continue;
+    }
+    const int components = radiance->GetNumberOfComponents();
+    const float* value = radiance->GetPointer(0);
+    for (vtkIdType i = 0; i < radiance->GetNumberOfTuples(); ++i, value += components)
+    {
+      sum += 0.2126 * value[0] + 0.7152 * value[1] + 0.0722 * value[2];
+    }
+    count += radiance->GetNumberOfTuples();
+  }
+  return count ? sum / count : 0.0;
+}
+
+// An eye's display image: the denoised eye when a denoiser is given, the mapper's otherwise.
+vtkSmartPointer<vtkImageData> ShownEyeImage(
+  vtkPathTracedVolumeMapper* mapper, FrameDenoiser* denoiser, const Options& options, int eye)
+{
+  return DisplayImage(
+    mapper, eye, options.Transparent, denoiser ? denoiser->GetEyeOutput(eye) : nullptr);
+}
+
+// The displayed frame's image as one PNG (side by side for stereo): the denoised eyes when a
+// denoiser is given, the mapper's otherwise. For --save-frames.
+void WriteFrameImage(vtkPathTracedVolumeMapper* mapper, FrameDenoiser* denoiser,
+  const Options& options, const std::string& path)
+{
+  auto eyeImage = [&](int eye) { return ShownEyeImage(mapper, denoiser, options, eye); };
+  if (!options.Stereo)
+  {
+    WritePNG(eyeImage(0), path);
+    return;
+  }
+  vtkNew<vtkImageAppend> sideBySide;
+  sideBySide->SetAppendAxis(0);
+  sideBySide->AddInputData(eyeImage(0));
+  sideBySide->AddInputData(eyeImage(1));
+  sideBySide->Update();
+  WritePNG(sideBySide->GetOutput(), path);
+}
+
+// DIR/frames/<name>-NNNN.png, NNNN counting from 0001.
+std::string FrameImagePath(const Options& options, const std::string& name, int frame)
+{
+  char number[16];
+  std::snprintf(number, sizeof(number), "%04d", frame + 1);
+  return options.Output + "/frames/" + name + "-" + number + ".png";
+}
+
 // Writes the display images of the last frame (and with --save-buffers each eye's buffers):
 // <prefix>-{left,right,stereo}.png, or <prefix>.png for a mono view.
-void WriteEyeImages(
-  vtkPathTracedVolumeMapper* mapper, const Options& options, const std::string& prefix)
+void WriteEyeImages(vtkPathTracedVolumeMapper* mapper, const Options& options,
+  const std::string& prefix, FrameDenoiser* denoiser = nullptr)
 {
+  auto eyeImage = [&](int eye) { return ShownEyeImage(mapper, denoiser, options, eye); };
   if (options.Stereo)
   {
-    auto left = DisplayImage(mapper, 0, options.Transparent);
-    auto right = DisplayImage(mapper, 1, options.Transparent);
+    auto left = eyeImage(0);
+    auto right = eyeImage(1);
     WritePNG(left, prefix + "-left.png");
     WritePNG(right, prefix + "-right.png");
     vtkNew<vtkImageAppend> sideBySide;
@@ -579,7 +747,7 @@ void WriteEyeImages(
   }
   else
   {
-    WritePNG(DisplayImage(mapper, 0, options.Transparent), prefix + ".png");
+    WritePNG(eyeImage(0), prefix + ".png");
     std::cout << "               wrote " << prefix << ".png\n";
   }
   if (options.SaveBuffers)
@@ -587,7 +755,7 @@ void WriteEyeImages(
     for (int eye = 0; eye < (options.Stereo ? 2 : 1); ++eye)
     {
       vtkNew<vtkXMLImageDataWriter> writer;
-      writer->SetInputData(mapper->GetEyeOutput(eye));
+      writer->SetInputData(denoiser ? denoiser->GetEyeOutput(eye) : mapper->GetEyeOutput(eye));
       const std::string path = prefix + (eye == 0 ? "-left" : "-right") + "-buffers.vti";
       writer->SetFileName(path.c_str());
       writer->Write();
@@ -754,7 +922,8 @@ bool CheckCameraSource(const std::string& source)
 
 // Live mode: every frame takes the newest camera frame through the lighting chain (stitching,
 // world alignment and volume-centred warp, HDR estimation, T), installs the new radiance map
-// when the light changed, and renders one more progressive frame.
+// when the light changed, and renders one more progressive frame, or with --denoise a fresh
+// frame that the denoiser turns into the shown one.
 int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeData,
   vtkCamera* camera, vtkMatrix4x4* environmentToWorld, ProgressState& progress)
 {
@@ -867,6 +1036,16 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
   bool haveMap = false;
   hv::lighting::IlluminationDifference difference;
   SelectModel(mapper, model);
+  std::unique_ptr<FrameDenoiser> denoiser;
+  if (options.DenoiseFrames)
+  {
+    denoiser = std::make_unique<FrameDenoiser>(mapper, options.Stereo);
+  }
+  const std::string prefix = options.Output + "/live-" + model;
+  if (options.SaveFrames)
+  {
+    mkdir((options.Output + "/frames").c_str(), 0755);
+  }
 
   progress.Label = "live " + model;
   progress.Frames = options.CameraFrames;
@@ -884,6 +1063,7 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
   };
   double total[Stages] = { 0.0, 0.0, 0.0, 0.0, 0.0 };
   int relights = 0;
+  double denoiseTotal = 0.0;
   using Clock = std::chrono::steady_clock;
   auto milliseconds = [](Clock::time_point from, Clock::time_point to)
   { return std::chrono::duration<double, std::milli>(to - from).count(); };
@@ -925,6 +1105,10 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
     const bool newCameraFrame = cameraFrame != lastCameraFrame;
     lastCameraFrame = cameraFrame;
     bool relit = false;
+    // The illumination difference between the map installed now and the one it replaces: the
+    // denoiser's T. Not the synced light's own T, which compares consecutive camera frames,
+    // while the map in use is replaced only once the light has drifted past the threshold.
+    double mapDifference = 0.0;
     if (!haveMap)
     {
       relit = true;
@@ -939,7 +1123,8 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
       inUse->GetDimensions(dims);
       const cv::Mat previousMap(dims[1], dims[0], CV_32FC3, used->GetPointer(0));
       const cv::Mat currentMap(dims[1], dims[0], CV_32FC3, current->GetPointer(0));
-      relit = difference.compute(previousMap, currentMap) >= options.RelightThreshold;
+      mapDifference = difference.compute(previousMap, currentMap);
+      relit = mapDifference >= options.RelightThreshold;
     }
     if (relit)
     {
@@ -974,6 +1159,10 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
       return 1;
     }
     const auto t5 = Clock::now();
+    if (denoiser && !denoiser->Denoise(relit ? mapDifference : 0.0))
+    {
+      return 1;
+    }
     const double stage[Stages] = { milliseconds(t0, t1), milliseconds(t1, t2), milliseconds(t2, t3),
       milliseconds(t3, t4), milliseconds(t4, t5) };
     for (int i = 0; i < Stages; ++i)
@@ -988,13 +1177,40 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
     }
     vtkPolyData* detected = synced->GetDetectedLights();
     std::printf("  frame %3d/%d  camera frame %lld%s  T %.3f  lights %lld  lighting %.1f ms  "
-                "render %.1f ms  %s %d\n",
+                "render %.1f ms  ",
       progress.Frame + 1, progress.Frames, static_cast<long long>(cameraFrame),
       newCameraFrame ? "" : " (same)", synced->GetIlluminationDifference(),
       static_cast<long long>(detected ? detected->GetNumberOfPoints() : 0), lightingMilliseconds,
-      renderMilliseconds, relit ? "relit, accumulated" : "accumulated",
-      mapper->GetAccumulatedFrames(0));
+      renderMilliseconds);
+    if (denoiser)
+    {
+      denoiseTotal += denoiser->GetLastMilliseconds();
+      vtkImageData* raw[2] = { mapper->GetEyeOutput(0),
+        options.Stereo ? mapper->GetEyeOutput(1) : nullptr };
+      std::printf("%s  denoise %.1f ms  history %.1f frames  temporal weight %.3f  "
+                  "radiance raw %.4f denoised %.4f\n",
+        relit ? "map replaced" : "map kept", denoiser->GetLastMilliseconds(),
+        denoiser->GetField("MeanHistoryLength"), denoiser->GetField("TemporalWeight"),
+        MeanRadiance(raw[0], raw[1]),
+        MeanRadiance(
+          denoiser->GetEyeOutput(0), options.Stereo ? denoiser->GetEyeOutput(1) : nullptr));
+    }
+    else
+    {
+      std::printf(
+        "%s %d\n", relit ? "relit, accumulated" : "accumulated", mapper->GetAccumulatedFrames(0));
+    }
     std::fflush(stdout);
+    if (options.SaveFrames)
+    {
+      WriteFrameImage(
+        mapper, nullptr, options, FrameImagePath(options, "live-" + model, progress.Frame));
+      if (denoiser)
+      {
+        WriteFrameImage(mapper, denoiser.get(), options,
+          FrameImagePath(options, "live-" + model + "-denoised", progress.Frame));
+      }
+    }
   }
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   const double n = progress.Frames;
@@ -1008,9 +1224,24 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
     options.Stereo ? "stereo" : "mono", relights,
     static_cast<long long>(source->GetFramesReceived()),
     static_cast<long long>(source->GetFramesDropped()));
+  if (denoiser)
+  {
+    std::printf("               denoised: %.1f ms per frame on average (%s); every frame %d "
+                "spp, no accumulation\n",
+      denoiseTotal / n, options.Stereo ? "both eyes" : "mono", options.SamplesPerPixel);
+  }
 
-  const std::string prefix = options.Output + "/live-" + model;
   WriteEyeImages(mapper, options, prefix);
+  if (denoiser)
+  {
+    WriteEyeImages(mapper, options, prefix + "-denoised", denoiser.get());
+  }
+  if (options.SaveFrames)
+  {
+    std::cout << "               wrote " << progress.Frames << " frame images to " << options.Output
+              << "/frames/live-" << model << "-NNNN.png"
+              << (denoiser ? " and live-" + model + "-denoised-NNNN.png" : std::string()) << "\n";
+  }
   if (options.SaveEnvironment)
   {
     const std::string environmentPath = options.Output + "/live-environment.png";
@@ -1300,18 +1531,47 @@ int main(int argc, char* argv[])
     return RenderLive(options, scene, volumeData, camera, environmentToWorld, progress);
   }
 
+  std::unique_ptr<FrameDenoiser> denoiser;
+  if (options.DenoiseFrames)
+  {
+    denoiser = std::make_unique<FrameDenoiser>(mapper, options.Stereo);
+  }
+  if (options.SaveFrames)
+  {
+    mkdir((options.Output + "/frames").c_str(), 0755);
+  }
   for (const std::string& model : options.Models)
   {
     SelectModel(mapper, model);
     // Only the path tracer gains from progressive frames; the others are near-deterministic.
     progress.Label = model;
     progress.Frames = model == "path-traced" ? options.Frames : std::min(options.Frames, 4);
+    const std::string name = model + (denoiser ? "-denoised" : "");
+    double denoiseMilliseconds = 0.0;
     const auto start = std::chrono::steady_clock::now();
     for (progress.Frame = 0; progress.Frame < progress.Frames; ++progress.Frame)
     {
       if (!RenderFrame(scene, options, model))
       {
         return 1;
+      }
+      // A still view under a still panorama: the light does not change (T = 0).
+      if (denoiser && !denoiser->Denoise(0.0))
+      {
+        return 1;
+      }
+      if (denoiser)
+      {
+        denoiseMilliseconds += denoiser->GetLastMilliseconds();
+      }
+      if (options.SaveFrames)
+      {
+        WriteFrameImage(mapper, nullptr, options, FrameImagePath(options, model, progress.Frame));
+        if (denoiser)
+        {
+          WriteFrameImage(
+            mapper, denoiser.get(), options, FrameImagePath(options, name, progress.Frame));
+        }
       }
     }
     const double seconds =
@@ -1323,7 +1583,27 @@ int main(int argc, char* argv[])
     std::printf("  %-24s %d frames in %.2f s (%.0f ms per %s frame)\n", model.c_str(),
       progress.Frames, seconds, 1000.0 * seconds / progress.Frames,
       options.Stereo ? "stereo" : "mono");
-    WriteEyeImages(mapper, options, options.Output + "/" + model);
+    const std::string prefix = options.Output + "/" + model;
+    WriteEyeImages(mapper, options, prefix);
+    if (denoiser)
+    {
+      vtkImageData* raw[2] = { mapper->GetEyeOutput(0),
+        options.Stereo ? mapper->GetEyeOutput(1) : nullptr };
+      std::printf("               denoised, every frame %d spp without accumulation: %.1f ms per "
+                  "frame on average; last frame: history %.1f frames, radiance raw %.4f denoised "
+                  "%.4f\n",
+        options.SamplesPerPixel, denoiseMilliseconds / progress.Frames,
+        denoiser->GetField("MeanHistoryLength"), MeanRadiance(raw[0], raw[1]),
+        MeanRadiance(
+          denoiser->GetEyeOutput(0), options.Stereo ? denoiser->GetEyeOutput(1) : nullptr));
+      WriteEyeImages(mapper, options, prefix + "-denoised", denoiser.get());
+    }
+    if (options.SaveFrames)
+    {
+      std::cout << "               wrote " << progress.Frames << " frame images to "
+                << options.Output << "/frames/" << model << "-NNNN.png"
+                << (denoiser ? " and " + name + "-NNNN.png" : std::string()) << "\n";
+    }
   }
   return 0;
 }
