@@ -5,7 +5,9 @@
 #include "vtkPathTracedVolumeMapper.h"
 #include "vtkStereoSpatioTemporalDenoiser.h"
 
+#include "vtkAbstractVolumeMapper.h"
 #include "vtkCommand.h"
+#include "vtkDataObject.h"
 #include "vtkImageData.h"
 #include "vtkMatrix4x4.h"
 #include "vtkNew.h"
@@ -116,6 +118,28 @@ double Determinant3(const Matrix4& m)
 {
   return glm::determinant(glm::dmat3(glm::make_mat4(m.data())));
 }
+
+// What a frame shows besides the pose: the volume (its property and placement), its mapper and
+// the data objects the mapper renders (the volume's data, the environment map).
+vtkMTimeType SceneMTime(vtkVolume* volume)
+{
+  vtkMTimeType time = volume->GetMTime();
+  if (vtkAbstractVolumeMapper* mapper = volume->GetMapper())
+  {
+    time = std::max(time, mapper->GetMTime());
+    for (int port = 0; port < mapper->GetNumberOfInputPorts(); ++port)
+    {
+      if (mapper->GetNumberOfInputConnections(port) > 0)
+      {
+        if (vtkDataObject* data = mapper->GetInputDataObject(port, 0))
+        {
+          time = std::max(time, data->GetMTime());
+        }
+      }
+    }
+  }
+  return time;
+}
 }
 
 struct vtkHoloLensRemotingOutput::Internals
@@ -140,6 +164,8 @@ struct vtkHoloLensRemotingOutput::Internals
   bool HasPose = false;
   int StillFrames = 0;
   bool SceneChanged = true;
+  // The scene's modification time when the last frame was rendered (see SceneMTime()).
+  vtkMTimeType RenderedSceneMTime = 0;
   bool KeyFrameRequested = false;
 
   hv::remoting::H264Encoder H264[2];
@@ -403,6 +429,17 @@ void vtkHoloLensRemotingOutput::GetVolumePlacement(vtkMatrix4x4* placement)
   }
 }
 
+bool vtkHoloLensRemotingOutput::GetHeadPose(vtkMatrix4x4* worldFromHead)
+{
+  Internals& internal = *this->Internal;
+  if (!worldFromHead || !internal.HasPose)
+  {
+    return false;
+  }
+  ToVTK(ConjugateByScale(internal.Pose.head, this->WorldUnitsPerMetre), worldFromHead);
+  return true;
+}
+
 int vtkHoloLensRemotingOutput::GetNumberOfClients()
 {
   return this->IsRunning() ? this->Internal->Server->GetCounters().clients : 0;
@@ -580,6 +617,13 @@ int vtkHoloLensRemotingOutput::ProcessFrame(double waitSeconds)
   {
     internal.HasPose = false;
   }
+  // Observers change the scene for this frame here (a live environment, say); whatever changed
+  // since the last frame is rendered, as a new pose is.
+  this->InvokeEvent(vtkCommand::StartEvent);
+  if (SceneMTime(this->Volume) > internal.RenderedSceneMTime)
+  {
+    internal.SceneChanged = true;
+  }
   const bool canRender = counters.clients > 0 && (internal.HasPose || !counters.hasController);
   // Taken once: an H.264 client that joined or lost a frame needs a key frame, even of a still view.
   const bool keyFrameRequested = server.TakeKeyFrameRequest();
@@ -643,6 +687,9 @@ int vtkHoloLensRemotingOutput::ProcessFrame(double waitSeconds)
     vtkErrorMacro("The mapper could not render the frame; see its error above.");
     return -1;
   }
+  // After the render, which brings the mapper's inputs up to date: the next frame compares
+  // with the scene as rendered.
+  internal.RenderedSceneMTime = SceneMTime(this->Volume);
   const double denoiseStart = NowMs();
   vtkImageData* radiance[2] = { mapper->GetEyeOutput(0), mapper->GetEyeOutput(1) };
   if (this->Denoiser)

@@ -24,6 +24,11 @@
  * when CertificateFile and PrivateKeyFile are set (a headset needs that: WebXR wants a secure
  * context off localhost).
  *
+ * Each ProcessFrame() invokes vtkCommand::StartEvent once the newest pose and the interaction
+ * are taken and before it decides whether to render: the place to change the scene for this
+ * frame, e.g. a live environment map that follows the headset's pose (GetHeadPose()). A change
+ * of the volume, its property, the mapper or the mapper's inputs (the data, the environment
+ * map) since the last frame is rendered even when the pose is still, like a new pose.
  * Each published frame invokes vtkCommand::UpdateDataEvent; the timings of the last frame and
  * the server's counters are available through getters.
  */
@@ -216,6 +221,13 @@ public:
    * The volume's placement (data to world, world units) now; identity before Start().
    */
   void GetVolumePlacement(vtkMatrix4x4* placement);
+
+  /**
+   * The controller's newest head pose (head to world, world units: translation in metres
+   * times WorldUnitsPerMetre; the head looks along its -Z with +Y up). Returns false, and
+   * leaves the matrix alone, while no controller has sent a pose.
+   */
+  bool GetHeadPose(vtkMatrix4x4* worldFromHead);
 
 protected:
   vtkHoloLensRemotingOutput();

@@ -22,6 +22,7 @@
 #include "vtkDataArray.h"
 #include "vtkFieldData.h"
 #include "vtkImageData.h"
+#include "vtkMatrix4x4.h"
 #include "vtkPlaneCollection.h"
 
 #include "hv/remoting/FrameCodec.h"
@@ -341,6 +342,59 @@ int TestHoloLensRemotingOutput(int, char*[])
   viewer.Send(SerializePose(MakePose(8)));
   frame = viewer.NextFrame(output, 8);
   Check(frame.valid && output->GetNumberOfRejectedMessages() == 1, "a malformed pose is rejected, the next one renders");
+
+  // A still pose and an unchanged scene render nothing (MaximumStillFrames is 0 here): what
+  // the render itself touches does not count as a change.
+  int idleFrames = 0;
+  for (int i = 0; i < 4; ++i)
+  {
+    idleFrames += output->ProcessFrame(0.01);
+  }
+  Check(idleFrames == 0, "a still pose and an unchanged scene render nothing");
+  // StartEvent comes with the newest head pose, before the output decides whether to render:
+  // an environment map changed there (a live radiance map) is rendered in that very frame,
+  // though the pose is still.
+  struct LiveEnvironment
+  {
+    vtkHoloLensRemotingOutput* Output;
+    vtkImageData* Map;
+    int Calls = 0;
+    bool ChangeNow = false;
+    bool HasPose = false;
+    double HeadY = 0.0;
+  } live{ output, mapper->GetEnvironmentMap() };
+  vtkNew<vtkCallbackCommand> onStart;
+  onStart->SetClientData(&live);
+  onStart->SetCallback(
+    [](vtkObject*, unsigned long, void* clientData, void*)
+    {
+      auto* state = static_cast<LiveEnvironment*>(clientData);
+      ++state->Calls;
+      vtkNew<vtkMatrix4x4> head;
+      state->HasPose = state->Output->GetHeadPose(head);
+      state->HeadY = head->GetElement(1, 3);
+      if (state->ChangeNow)
+      {
+        state->Map->Modified();
+        state->ChangeNow = false;
+      }
+    });
+  const unsigned long startObserver = output->AddObserver(vtkCommand::StartEvent, onStart);
+  live.ChangeNow = true;
+  const vtkTypeUInt64 frameBefore = output->GetFrameId();
+  const int changedFrames = output->ProcessFrame(0.01);
+  Check(changedFrames == 1 && output->GetFrameId() == frameBefore + 1 &&
+      output->GetLastPoseId() == 8 && live.Calls == 1,
+    "an environment map changed in StartEvent is rendered in the same step, for the still pose");
+  Check(live.HasPose && std::fabs(live.HeadY - 150.0) < 1e-9,
+    "GetHeadPose() gives the controller's head in world units (1.5 m at 100 units a metre)");
+  idleFrames = 0;
+  for (int i = 0; i < 3; ++i)
+  {
+    idleFrames += output->ProcessFrame(0.01);
+  }
+  Check(idleFrames == 0 && live.Calls == 4, "then the loop idles again, StartEvent on every step");
+  output->RemoveObserver(startObserver);
   std::cout << "  render " << output->GetLastRenderTime() << " ms, encode " << output->GetLastEncodeTime()
             << " ms, " << output->GetLastJpegBytes() << " JPEG bytes\n";
   output->Stop();
