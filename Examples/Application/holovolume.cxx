@@ -920,6 +920,214 @@ bool CheckCameraSource(const std::string& source)
   return true;
 }
 
+// The live lighting chain of a 360-degree camera (--camera): vtkPanoramaVideoSource ->
+// vtkDualFisheyeToEquirectangular (unless the frames are panoramas already) ->
+// vtkEnvironmentSyncedLight, and the radiance map the mapper renders with. That map is a copy,
+// replaced only when the newest map differs from it by --relight-threshold, so that the
+// mapper's accumulation restarts (or the denoiser relights its history) only when the light
+// changed, not at every camera frame (sensor noise and compression change each frame a little).
+class LiveLighting
+{
+public:
+  enum Stage
+  {
+    CopyStage,
+    StitchStage,
+    SyncedStage,
+    RelightStage,
+    Stages
+  };
+
+  LiveLighting(const Options& options, vtkPathTracedVolumeMapper* mapper)
+    : Options_(options)
+    , Mapper(mapper)
+    , Equirectangular(options.Calibration == "equirectangular")
+  {
+  }
+
+  // Builds the chain; false after a message (a calibration that does not load).
+  bool Build()
+  {
+    this->Source->SetSource(this->Options_.Camera.c_str());
+    this->Source->SetPaceToFrameRate(this->Options_.CameraPacing);
+    this->Source->SetLoop(this->Options_.CameraLoop);
+    // Each frame takes the newest camera frame once, at its start (UpdateToNewestFrame), so
+    // that the stages see the same frame.
+    this->Source->AutoAdvanceOff();
+    if (this->Equirectangular)
+    {
+      this->Synced->SetInputConnection(this->Source->GetOutputPort());
+      return true;
+    }
+    if (!ConfigureCalibration(this->Options_.Calibration, this->Stitcher))
+    {
+      return false;
+    }
+    this->Stitcher->SetInputConnection(this->Source->GetOutputPort());
+    this->Synced->SetInputConnection(this->Stitcher->GetOutputPort());
+    return true;
+  }
+
+  // Opens the camera and prints what it is; false after a message.
+  bool Open()
+  {
+    if (!this->Source->Open())
+    {
+      std::cerr << "holovolume: cannot open the camera source '" << this->Options_.Camera
+                << "' (see the message above)\n";
+      return false;
+    }
+    std::printf(
+      "               %s, %s\n", this->Source->GetSourceKind(), this->Source->GetFrameEncoding());
+    return true;
+  }
+
+  // One frame's lighting: the newest camera frame (after waiting up to waitSeconds for one
+  // newer than the last, when positive) through the chain stage by stage (each Update() finds
+  // the stages upstream up to date, so each stage can be timed), and the map in use replaced
+  // when the light changed. The first call takes the frame Open() took. False after a message.
+  bool Advance(double waitSeconds)
+  {
+    using Clock = std::chrono::steady_clock;
+    auto milliseconds = [](Clock::time_point from, Clock::time_point to)
+    { return std::chrono::duration<double, std::milli>(to - from).count(); };
+    bool newer = false;
+    if (this->Advanced && waitSeconds > 0.0)
+    {
+      newer = this->Source->WaitForNewFrame(waitSeconds);
+    }
+    const auto t0 = Clock::now();
+    if (this->Advanced && !newer)
+    {
+      this->Source->UpdateToNewestFrame();
+    }
+    this->Advanced = true;
+    bool ok = this->Source->GetExecutive()->Update();
+    const auto t1 = Clock::now();
+    ok = ok && (this->Equirectangular || this->Stitcher->GetExecutive()->Update());
+    const auto t2 = Clock::now();
+    ok = ok && this->Synced->GetExecutive()->Update() &&
+      this->Synced->GetOutput()->GetNumberOfPoints() > 0;
+    const auto t3 = Clock::now();
+    if (!ok)
+    {
+      std::cerr << "\nholovolume: the lighting chain failed on camera frame "
+                << this->Source->GetFrameIndex() << " (see the message above)"
+                << (this->Equirectangular
+                       ? "; equirectangular frames must be twice as wide as high, and "
+                         "dual-fisheye frames need the camera's --calibration"
+                       : "; if the frames are already panoramas, pass "
+                         "--calibration equirectangular")
+                << "\n";
+      return false;
+    }
+    this->CameraFrame = this->Source->GetFrameIndex();
+    this->NewCameraFrame = this->CameraFrame != this->LastCameraFrame;
+    this->LastCameraFrame = this->CameraFrame;
+    // A new map comes from a new camera frame, or from the same one seen from another pose.
+    const vtkMTimeType mapTime = this->Synced->GetOutput()->GetMTime();
+    const bool newMap = mapTime != this->LastMapTime;
+    this->LastMapTime = mapTime;
+    this->Replaced = false;
+    this->MapDifference = 0.0;
+    if (!this->HaveMap)
+    {
+      this->Replaced = true;
+    }
+    else if (newMap)
+    {
+      // How far the newest map is from the one in use (the same log-SSIM measure as T).
+      auto* current =
+        vtkFloatArray::SafeDownCast(this->Synced->GetOutput()->GetPointData()->GetScalars());
+      auto* used = vtkFloatArray::SafeDownCast(this->InUse->GetPointData()->GetScalars());
+      int dims[3];
+      this->InUse->GetDimensions(dims);
+      const cv::Mat previousMap(dims[1], dims[0], CV_32FC3, used->GetPointer(0));
+      const cv::Mat currentMap(dims[1], dims[0], CV_32FC3, current->GetPointer(0));
+      this->MapDifference = this->Difference.compute(previousMap, currentMap);
+      this->Replaced = this->MapDifference >= this->Options_.RelightThreshold;
+    }
+    if (this->Replaced)
+    {
+      this->InUse->DeepCopy(this->Synced->GetOutput());
+      this->InUse->Modified();
+      ++this->Replacements;
+      if (!this->HaveMap)
+      {
+        this->InstallFirstMap();
+      }
+    }
+    const auto t4 = Clock::now();
+    const double stage[Stages] = { milliseconds(t0, t1), milliseconds(t1, t2), milliseconds(t2, t3),
+      milliseconds(t3, t4) };
+    for (int i = 0; i < Stages; ++i)
+    {
+      this->StageMilliseconds[i] = stage[i];
+    }
+    return true;
+  }
+
+  vtkPanoramaVideoSource* GetSource() { return this->Source; }
+  vtkEnvironmentSyncedLight* GetSyncedLight() { return this->Synced; }
+  vtkImageData* GetMapInUse() { return this->InUse; }
+  // The stitched camera panorama (the camera's frame when it is a panorama already).
+  vtkImageData* GetCameraPanorama()
+  {
+    return vtkImageData::SafeDownCast(this->Equirectangular
+        ? this->Source->GetOutputDataObject(0)
+        : this->Stitcher->GetOutputDataObject(0));
+  }
+  bool IsEquirectangular() const { return this->Equirectangular; }
+
+  // What the last Advance() found.
+  vtkTypeInt64 CameraFrame = -1;
+  bool NewCameraFrame = false;
+  // The map in use was replaced, and by how much it differs from the one it replaced: the
+  // denoiser's T. Not the synced light's own T, which compares consecutive camera frames,
+  // while the map in use is replaced only once the light has drifted past the threshold.
+  bool Replaced = false;
+  double MapDifference = 0.0;
+  double StageMilliseconds[Stages] = { 0.0, 0.0, 0.0, 0.0 };
+  int Replacements = 0;
+
+private:
+  void InstallFirstMap()
+  {
+    this->Mapper->SetEnvironmentMapData(this->InUse);
+    this->HaveMap = true;
+    if (!this->Options_.AutoEnvironmentIntensity)
+    {
+      return;
+    }
+    // An LDR camera gives radiance relative to its clip level, not absolute radiance: like a
+    // photographer's exposure, the scale is fixed once, from the first map, so that later
+    // changes of the light (a lamp switching on) still show.
+    const double mean = MeanLuminance(this->InUse);
+    const double intensity = mean > 0.0 ? AutoMeanLuminance / mean : 1.0;
+    this->Mapper->SetEnvironmentIntensity(intensity);
+    if (isatty(fileno(stderr)))
+    {
+      std::fprintf(stderr, "\r%80s\r", "");
+    }
+    std::printf("Environment  intensity x%.4g (auto: mean radiance %.4g of the first map to "
+                "%.2g; --environment-intensity sets it)\n",
+      intensity, mean, AutoMeanLuminance);
+  }
+
+  const Options& Options_;
+  vtkPathTracedVolumeMapper* Mapper;
+  const bool Equirectangular;
+  vtkNew<vtkPanoramaVideoSource> Source;
+  vtkNew<vtkDualFisheyeToEquirectangular> Stitcher;
+  vtkNew<vtkEnvironmentSyncedLight> Synced;
+  vtkNew<vtkImageData> InUse;
+  hv::lighting::IlluminationDifference Difference;
+  bool HaveMap = false;
+  bool Advanced = false;
+  vtkTypeInt64 LastCameraFrame = -1;
+  vtkMTimeType LastMapTime = 0;
+};
+
 // Live mode: every frame takes the newest camera frame through the lighting chain (stitching,
 // world alignment and volume-centred warp, HDR estimation, T), installs the new radiance map
 // when the light changed, and renders one more progressive frame, or with --denoise a fresh
@@ -930,29 +1138,13 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
   const std::string& model = options.Models.front();
   vtkPathTracedVolumeMapper* mapper = scene.Mapper;
 
-  vtkNew<vtkPanoramaVideoSource> source;
-  source->SetSource(options.Camera.c_str());
-  source->SetPaceToFrameRate(options.CameraPacing);
-  source->SetLoop(options.CameraLoop);
-  // Each rendered frame takes the newest camera frame once, at its start (UpdateToNewestFrame),
-  // so that the stages below see the same frame.
-  source->AutoAdvanceOff();
-  vtkNew<vtkDualFisheyeToEquirectangular> stitcher;
-  vtkNew<vtkEnvironmentSyncedLight> synced;
-  const bool equirectangular = options.Calibration == "equirectangular";
-  if (equirectangular)
+  LiveLighting lighting(options, mapper);
+  if (!lighting.Build())
   {
-    synced->SetInputConnection(source->GetOutputPort());
+    return 2;
   }
-  else
-  {
-    if (!ConfigureCalibration(options.Calibration, stitcher))
-    {
-      return 2;
-    }
-    stitcher->SetInputConnection(source->GetOutputPort());
-    synced->SetInputConnection(stitcher->GetOutputPort());
-  }
+  vtkEnvironmentSyncedLight* synced = lighting.GetSyncedLight();
+  const bool equirectangular = lighting.IsEquirectangular();
 
   // Frames. The synced light works in a room frame: +Y up, the frame of an upright headset,
   // in which the camera panorama is defined; the volume's world (RAS for NIfTI, millimetres)
@@ -1021,20 +1213,10 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
               << "--proxy-radius in metres too\n";
   }
 
-  if (!source->Open())
+  if (!lighting.Open())
   {
-    std::cerr << "holovolume: cannot open the camera source '" << options.Camera
-              << "' (see the message above)\n";
     return 1;
   }
-  std::printf("               %s, %s\n", source->GetSourceKind(), source->GetFrameEncoding());
-
-  // The radiance map the mapper renders with. A copy, so that the mapper's accumulation
-  // restarts only when the map is replaced, not at every camera frame (sensor noise and
-  // compression change every frame a little).
-  vtkNew<vtkImageData> inUse;
-  bool haveMap = false;
-  hv::lighting::IlluminationDifference difference;
   SelectModel(mapper, model);
   std::unique_ptr<FrameDenoiser> denoiser;
   if (options.DenoiseFrames)
@@ -1049,20 +1231,9 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
 
   progress.Label = "live " + model;
   progress.Frames = options.CameraFrames;
-  vtkTypeInt64 lastCameraFrame = -1;
-  // Milliseconds summed over the frames: frame copy, stitching, synced light, relight test,
-  // render.
-  enum Stage
-  {
-    Copy,
-    Stitch,
-    Synced,
-    Relight,
-    Render,
-    Stages
-  };
-  double total[Stages] = { 0.0, 0.0, 0.0, 0.0, 0.0 };
-  int relights = 0;
+  // Milliseconds summed over the frames: frame copy, stitching, synced light, relight test.
+  double total[LiveLighting::Stages] = { 0.0, 0.0, 0.0, 0.0 };
+  double renderTotal = 0.0;
   double denoiseTotal = 0.0;
   using Clock = std::chrono::steady_clock;
   auto milliseconds = [](Clock::time_point from, Clock::time_point to)
@@ -1070,107 +1241,33 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
   const auto start = Clock::now();
   for (progress.Frame = 0; progress.Frame < progress.Frames; ++progress.Frame)
   {
-    // The newest camera frame, never waiting for the camera, through the chain stage by stage
-    // (each Update() finds the stages upstream up to date), so each stage can be timed.
-    // The first frame is the one Open() took. With --camera-wait, wait for a newer one (the
-    // wait is not lighting time); otherwise take whatever is newest, never waiting.
-    bool newer = false;
-    if (progress.Frame > 0 && options.CameraWait > 0.0)
+    // The newest camera frame through the lighting chain. With --camera-wait, wait for a newer
+    // one (the wait is not lighting time); otherwise take whatever is newest, never waiting.
+    if (!lighting.Advance(options.CameraWait))
     {
-      newer = source->WaitForNewFrame(options.CameraWait);
-    }
-    const auto t0 = Clock::now();
-    if (progress.Frame > 0 && !newer)
-    {
-      source->UpdateToNewestFrame();
-    }
-    bool ok = source->GetExecutive()->Update();
-    const auto t1 = Clock::now();
-    ok = ok && (equirectangular || stitcher->GetExecutive()->Update());
-    const auto t2 = Clock::now();
-    ok = ok && synced->GetExecutive()->Update() && synced->GetOutput()->GetNumberOfPoints() > 0;
-    const auto t3 = Clock::now();
-    if (!ok)
-    {
-      std::cerr << "\nholovolume: the lighting chain failed on camera frame "
-                << source->GetFrameIndex() << " (see the message above)"
-                << (equirectangular ? "; equirectangular frames must be twice as wide as high, and "
-                                      "dual-fisheye frames need the camera's --calibration"
-                                    : "; if the frames are already panoramas, pass "
-                                      "--calibration equirectangular")
-                << "\n";
       return 1;
     }
-    const vtkTypeInt64 cameraFrame = source->GetFrameIndex();
-    const bool newCameraFrame = cameraFrame != lastCameraFrame;
-    lastCameraFrame = cameraFrame;
-    bool relit = false;
-    // The illumination difference between the map installed now and the one it replaces: the
-    // denoiser's T. Not the synced light's own T, which compares consecutive camera frames,
-    // while the map in use is replaced only once the light has drifted past the threshold.
-    double mapDifference = 0.0;
-    if (!haveMap)
-    {
-      relit = true;
-    }
-    else if (newCameraFrame)
-    {
-      // How far the newest map is from the one in use (the same log-SSIM measure as T).
-      auto* current =
-        vtkFloatArray::SafeDownCast(synced->GetOutput()->GetPointData()->GetScalars());
-      auto* used = vtkFloatArray::SafeDownCast(inUse->GetPointData()->GetScalars());
-      int dims[3];
-      inUse->GetDimensions(dims);
-      const cv::Mat previousMap(dims[1], dims[0], CV_32FC3, used->GetPointer(0));
-      const cv::Mat currentMap(dims[1], dims[0], CV_32FC3, current->GetPointer(0));
-      mapDifference = difference.compute(previousMap, currentMap);
-      relit = mapDifference >= options.RelightThreshold;
-    }
-    if (relit)
-    {
-      inUse->DeepCopy(synced->GetOutput());
-      inUse->Modified();
-      if (!haveMap)
-      {
-        mapper->SetEnvironmentMapData(inUse);
-        haveMap = true;
-        if (options.AutoEnvironmentIntensity)
-        {
-          // An LDR camera gives radiance relative to its clip level, not absolute radiance:
-          // like a photographer's exposure, the scale is fixed once, from the first map, so
-          // that later changes of the light (a lamp switching on) still show.
-          const double mean = MeanLuminance(inUse);
-          const double intensity = mean > 0.0 ? AutoMeanLuminance / mean : 1.0;
-          mapper->SetEnvironmentIntensity(intensity);
-          if (isatty(fileno(stderr)))
-          {
-            std::fprintf(stderr, "\r%80s\r", "");
-          }
-          std::printf("Environment  intensity x%.4g (auto: mean radiance %.4g of the first map "
-                      "to %.2g; --environment-intensity sets it)\n",
-            intensity, mean, AutoMeanLuminance);
-        }
-      }
-      ++relights;
-    }
-    const auto t4 = Clock::now();
+    const vtkTypeInt64 cameraFrame = lighting.CameraFrame;
+    const bool newCameraFrame = lighting.NewCameraFrame;
+    const bool relit = lighting.Replaced;
+    const double mapDifference = lighting.MapDifference;
+    const auto renderStart = Clock::now();
     if (!RenderFrame(scene, options, model))
     {
       return 1;
     }
-    const auto t5 = Clock::now();
+    const double renderMilliseconds = milliseconds(renderStart, Clock::now());
     if (denoiser && !denoiser->Denoise(relit ? mapDifference : 0.0))
     {
       return 1;
     }
-    const double stage[Stages] = { milliseconds(t0, t1), milliseconds(t1, t2), milliseconds(t2, t3),
-      milliseconds(t3, t4), milliseconds(t4, t5) };
-    for (int i = 0; i < Stages; ++i)
+    double lightingMilliseconds = 0.0;
+    for (int i = 0; i < LiveLighting::Stages; ++i)
     {
-      total[i] += stage[i];
+      total[i] += lighting.StageMilliseconds[i];
+      lightingMilliseconds += lighting.StageMilliseconds[i];
     }
-    const double lightingMilliseconds = milliseconds(t0, t4);
-    const double renderMilliseconds = stage[Render];
+    renderTotal += renderMilliseconds;
     if (isatty(fileno(stderr)))
     {
       std::fprintf(stderr, "\r%80s\r", "");
@@ -1219,11 +1316,14 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
               "               radiance map replaced %d times; the camera delivered %lld frames, "
               "%lld of them overwritten before they were taken\n",
     ("live " + model).c_str(), progress.Frames, seconds,
-    (total[Copy] + total[Stitch] + total[Synced] + total[Relight]) / n, total[Copy] / n,
-    total[Stitch] / n, total[Synced] / n, total[Relight] / n, total[Render] / n,
-    options.Stereo ? "stereo" : "mono", relights,
-    static_cast<long long>(source->GetFramesReceived()),
-    static_cast<long long>(source->GetFramesDropped()));
+    (total[LiveLighting::CopyStage] + total[LiveLighting::StitchStage] +
+      total[LiveLighting::SyncedStage] + total[LiveLighting::RelightStage]) /
+      n,
+    total[LiveLighting::CopyStage] / n, total[LiveLighting::StitchStage] / n,
+    total[LiveLighting::SyncedStage] / n, total[LiveLighting::RelightStage] / n, renderTotal / n,
+    options.Stereo ? "stereo" : "mono", lighting.Replacements,
+    static_cast<long long>(lighting.GetSource()->GetFramesReceived()),
+    static_cast<long long>(lighting.GetSource()->GetFramesDropped()));
   if (denoiser)
   {
     std::printf("               denoised: %.1f ms per frame on average (%s); every frame %d "
@@ -1246,12 +1346,11 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
   {
     const std::string environmentPath = options.Output + "/live-environment.png";
     const std::string panoramaPath = options.Output + "/live-camera-panorama.png";
-    vtkImageData* cameraPanorama = equirectangular
-      ? vtkImageData::SafeDownCast(source->GetOutputDataObject(0))
-      : vtkImageData::SafeDownCast(stitcher->GetOutputDataObject(0));
+    vtkImageData* cameraPanorama = lighting.GetCameraPanorama();
     // An HDR camera frame (EXR/HDR given as equirectangular) is tone-mapped like Q.
-    const bool sceneLinear = std::strcmp(source->GetFrameEncoding(), "SceneLinear") == 0;
-    if (WritePanoramaPNG(inUse, environmentPath, true) &&
+    const bool sceneLinear =
+      std::strcmp(lighting.GetSource()->GetFrameEncoding(), "SceneLinear") == 0;
+    if (WritePanoramaPNG(lighting.GetMapInUse(), environmentPath, true) &&
       WritePanoramaPNG(cameraPanorama, panoramaPath, equirectangular && sceneLinear))
     {
       std::cout << "               wrote " << environmentPath << ", " << panoramaPath << "\n";
@@ -1266,13 +1365,13 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
   if (options.SaveBuffers)
   {
     vtkNew<vtkXMLImageDataWriter> writer;
-    writer->SetInputData(inUse);
+    writer->SetInputData(lighting.GetMapInUse());
     const std::string path = options.Output + "/live-environment.vti";
     writer->SetFileName(path.c_str());
     writer->Write();
     std::cout << "               wrote " << path << "\n";
   }
-  source->Close();
+  lighting.GetSource()->Close();
   return 0;
 }
 }
