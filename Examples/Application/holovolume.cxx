@@ -641,6 +641,7 @@ public:
 
   vtkImageData* GetEyeOutput(int eye) { return this->Denoiser->GetEyeOutput(eye); }
   double GetLastMilliseconds() { return this->Denoiser->GetLastFrameMilliseconds(); }
+  // Over the frames denoised so far.
   double GetMeanMilliseconds() const
   {
     return this->Frames ? this->MillisecondsSum / this->Frames : 0.0;
@@ -1231,7 +1232,6 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
   // Milliseconds summed over the frames: frame copy, stitching, synced light, relight test.
   double total[LiveLighting::Stages] = { 0.0, 0.0, 0.0, 0.0 };
   double renderTotal = 0.0;
-  double denoiseTotal = 0.0;
   using Clock = std::chrono::steady_clock;
   auto milliseconds = [](Clock::time_point from, Clock::time_point to)
   { return std::chrono::duration<double, std::milli>(to - from).count(); };
@@ -1278,7 +1278,6 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
       renderMilliseconds);
     if (denoiser)
     {
-      denoiseTotal += denoiser->GetLastMilliseconds();
       vtkImageData* raw[2] = { mapper->GetEyeOutput(0),
         options.Stereo ? mapper->GetEyeOutput(1) : nullptr };
       std::printf("%s  denoise %.1f ms  history %.1f frames  temporal weight %.3f  "
@@ -1325,7 +1324,8 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
   {
     std::printf("               denoised: %.1f ms per frame on average (%s); every frame %d "
                 "spp, no accumulation\n",
-      denoiseTotal / n, options.Stereo ? "both eyes" : "mono", options.SamplesPerPixel);
+      denoiser->GetMeanMilliseconds(), options.Stereo ? "both eyes" : "mono",
+      options.SamplesPerPixel);
   }
 
   WriteEyeImages(mapper, options, prefix);
@@ -1811,7 +1811,6 @@ int main(int argc, char* argv[])
     progress.Label = model;
     progress.Frames = model == "path-traced" ? options.Frames : std::min(options.Frames, 4);
     const std::string name = model + (denoiser ? "-denoised" : "");
-    double denoiseMilliseconds = 0.0;
     const auto start = std::chrono::steady_clock::now();
     for (progress.Frame = 0; progress.Frame < progress.Frames; ++progress.Frame)
     {
@@ -1823,10 +1822,6 @@ int main(int argc, char* argv[])
       if (denoiser && !denoiser->Denoise(0.0))
       {
         return 1;
-      }
-      if (denoiser)
-      {
-        denoiseMilliseconds += denoiser->GetLastMilliseconds();
       }
       if (options.SaveFrames)
       {
@@ -1856,7 +1851,7 @@ int main(int argc, char* argv[])
       std::printf("               denoised, every frame %d spp without accumulation: %.1f ms per "
                   "frame on average; last frame: history %.1f frames, radiance raw %.4f denoised "
                   "%.4f\n",
-        options.SamplesPerPixel, denoiseMilliseconds / progress.Frames,
+        options.SamplesPerPixel, denoiser->GetMeanMilliseconds(),
         denoiser->GetField("MeanHistoryLength"), MeanRadiance(raw[0], raw[1]),
         MeanRadiance(
           denoiser->GetEyeOutput(0), options.Stereo ? denoiser->GetEyeOutput(1) : nullptr));
