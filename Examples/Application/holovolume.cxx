@@ -1405,6 +1405,8 @@ struct StreamedLighting
   bool Failed = false;
   int Steps = 0;
   int PosesOutsideRoom = 0;
+  // Published frames whose denoiser was given T > 0.
+  int FramesWithNewLight = 0;
   double Milliseconds = 0.0;
 
   // One step: the head pose (or, before a controller sent one, where the output's default
@@ -1607,7 +1609,19 @@ int Serve(const Options& options, vtkPathTracedVolumeMapper* mapper, vtkVolume* 
     *t->Encode += t->Output->GetLastEncodeTime();
     if (t->Lighting)
     {
-      t->Lighting->PendingIlluminationDifference = 0.0; // this frame took the change in
+      // The T the denoiser used for this frame, from its output: a change of light it relit
+      // its history for.
+      StreamedLighting* lighting = t->Lighting;
+      if (lighting->Denoiser && lighting->Denoiser->GetEyeOutput(0))
+      {
+        vtkDataArray* used =
+          lighting->Denoiser->GetEyeOutput(0)->GetFieldData()->GetArray("IlluminationDifference");
+        if (used && used->GetNumberOfTuples() > 0 && used->GetTuple1(0) > 0.0)
+        {
+          ++lighting->FramesWithNewLight;
+        }
+      }
+      lighting->PendingIlluminationDifference = 0.0; // this frame took the change in
     }
   });
   output->AddObserver(vtkCommand::UpdateDataEvent, onFrame);
@@ -1627,10 +1641,11 @@ int Serve(const Options& options, vtkPathTracedVolumeMapper* mapper, vtkVolume* 
   if (lighting)
   {
     std::printf("Live lighting: %d steps of the chain (%.1f ms each on average), the camera "
-                "delivered %lld frames; the radiance map was replaced %d times%s\n",
+                "delivered %lld frames; the radiance map was replaced %d times, and %d published "
+                "frames gave the denoiser the change (T > 0)%s\n",
       streamed.Steps, streamed.Steps ? streamed.Milliseconds / streamed.Steps : 0.0,
       static_cast<long long>(lighting->GetSource()->GetFramesReceived()),
-      lighting->Replacements - 1,
+      lighting->Replacements - 1, streamed.FramesWithNewLight,
       streamed.PosesOutsideRoom
         ? (", " + std::to_string(streamed.PosesOutsideRoom) +
             " head poses outside the proxy room kept the last pose inside it")

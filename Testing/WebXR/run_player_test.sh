@@ -56,5 +56,12 @@ if [[ " ${server_arguments[*]} " == *" --camera "* ]]; then
     echo "FAIL: the server did not follow the camera's light (no replaced radiance map)"
     status=1
   fi
+  # Unless the stream is raw, the denoiser must have been given the change (T > 0) for a
+  # published frame, so that it relit its history rather than averaged the old light in.
+  if [[ " ${server_arguments[*]} " != *" --no-denoiser "* ]] &&
+    ! grep -Eq 'and [1-9][0-9]* published frames gave the denoiser the change' "$log"; then
+    echo "FAIL: no published frame gave the denoiser the change of light"
+    status=1
+  fi
 fi
 exit "$status"
