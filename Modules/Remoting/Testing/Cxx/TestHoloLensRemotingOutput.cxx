@@ -22,6 +22,7 @@
 #include "vtkDataArray.h"
 #include "vtkFieldData.h"
 #include "vtkImageData.h"
+#include "vtkMath.h"
 #include "vtkMatrix4x4.h"
 #include "vtkPlaneCollection.h"
 
@@ -394,6 +395,26 @@ int TestHoloLensRemotingOutput(int, char*[])
     idleFrames += output->ProcessFrame(0.01);
   }
   Check(idleFrames == 0 && live.Calls == 4, "then the loop idles again, StartEvent on every step");
+  // The head turned 30 degrees to its left (counter-clockwise seen from above) and 0.2 m to
+  // the right: the pose is head to world, so the gaze (-Z of the head) points to -x and -z in
+  // the world, the way vtkEnvironmentSyncedLight::SetHeadsetPose() takes a headset pose.
+  PoseMessage turned = MakePose(9);
+  const double turn = vtkMath::RadiansFromDegrees(30.0);
+  turned.head[0] = turned.head[10] = std::cos(turn);
+  turned.head[2] = -std::sin(turn); // column 0, the head's x axis in the world
+  turned.head[8] = std::sin(turn);  // column 2, its z axis
+  turned.head[12] = 0.2;
+  viewer.Send(SerializePose(turned));
+  frame = viewer.NextFrame(output, 9);
+  vtkNew<vtkMatrix4x4> worldFromHead;
+  const bool turnedPose = output->GetHeadPose(worldFromHead);
+  double gaze[4] = { 0.0, 0.0, -1.0, 0.0 }, gazeInWorld[4];
+  worldFromHead->MultiplyPoint(gaze, gazeInWorld);
+  Check(frame.valid && turnedPose && std::fabs(gazeInWorld[0] + std::sin(turn)) < 1e-9 &&
+      std::fabs(gazeInWorld[2] + std::cos(turn)) < 1e-9 &&
+      std::fabs(worldFromHead->GetElement(0, 3) - 20.0) < 1e-9,
+    "GetHeadPose() of a head turned 30 degrees left: the gaze points to (-sin 30, 0, -cos 30), "
+    "the head 0.2 m = 20 units to the right");
   output->RemoveObserver(startObserver);
   std::cout << "  render " << output->GetLastRenderTime() << " ms, encode " << output->GetLastEncodeTime()
             << " ms, " << output->GetLastJpegBytes() << " JPEG bytes\n";
