@@ -597,6 +597,15 @@ bool RenderFrame(const Scene& scene, const Options& options, const std::string& 
   return ok != 0;
 }
 
+// A figure the denoiser put in its left eye's field data ("MeanHistoryLength", "TemporalWeight",
+// "IlluminationDifference", ...); 0 before it ran.
+double DenoisedField(vtkStereoSpatioTemporalDenoiser* denoiser, const char* name)
+{
+  vtkImageData* left = denoiser->GetEyeOutput(0);
+  vtkDataArray* field = left ? left->GetFieldData()->GetArray(name) : nullptr;
+  return field && field->GetNumberOfTuples() > 0 ? field->GetTuple1(0) : 0.0;
+}
+
 // --denoise: every frame a fresh render (no progressive accumulation), turned into the frame
 // that is shown by the stereo denoiser, as on the headset.
 class FrameDenoiser
@@ -646,12 +655,7 @@ public:
   {
     return this->Frames ? this->MillisecondsSum / this->Frames : 0.0;
   }
-  // A field of the denoised left eye ("MeanHistoryLength", "TemporalWeight", ...).
-  double GetField(const char* name)
-  {
-    vtkDataArray* field = this->GetEyeOutput(0)->GetFieldData()->GetArray(name);
-    return field && field->GetNumberOfTuples() > 0 ? field->GetTuple1(0) : 0.0;
-  }
+  double GetField(const char* name) { return DenoisedField(this->Denoiser, name); }
 
 private:
   vtkPathTracedVolumeMapper* Mapper;
@@ -673,19 +677,30 @@ double MeanRadiance(vtkImageData* left, vtkImageData* right)
   {
     auto* radiance =
       eye ? vtkFloatArray::SafeDownCast(eye->GetPointData()->GetArray("Radiance")) : nullptr;
-    if (!radiance || radiance->GetNumberOfComponents() < 3)
+    if (!radiance || radiance->GetNumberOfComponents() < 3 ||
+      radiance->GetNumberOfComponents() > 4) // RGB or RGBA, as cv::sum takes them
     {
       continue;
     }
-    const int components = radiance->GetNumberOfComponents();
-    const float* value = radiance->GetPointer(0);
-    for (vtkIdType i = 0; i < radiance->GetNumberOfTuples(); ++i, value += components)
-    {
-      sum += 0.2126 * value[0] + 0.7152 * value[1] + 0.0722 * value[2];
-    }
-    count += radiance->GetNumberOfTuples();
+    // Luminance is linear: the luminance of the channels' sums is the sum of the luminances.
+    const vtkIdType pixels = radiance->GetNumberOfTuples();
+    const cv::Scalar channelSums = cv::sum(cv::Mat(1, static_cast<int>(pixels),
+      CV_32FC(radiance->GetNumberOfComponents()), radiance->GetPointer(0)));
+    sum += 0.2126 * channelSums[0] + 0.7152 * channelSums[1] + 0.0722 * channelSums[2];
+    count += pixels;
   }
   return count ? sum / count : 0.0;
+}
+
+// Two eyes' display images side by side, left first.
+vtkSmartPointer<vtkImageData> SideBySide(vtkImageData* left, vtkImageData* right)
+{
+  vtkNew<vtkImageAppend> append;
+  append->SetAppendAxis(0);
+  append->AddInputData(left);
+  append->AddInputData(right);
+  append->Update();
+  return append->GetOutput();
 }
 
 // An eye's display image: the denoised eye when a denoiser is given, the mapper's otherwise.
@@ -707,12 +722,7 @@ void WriteFrameImage(vtkPathTracedVolumeMapper* mapper, FrameDenoiser* denoiser,
     WritePNG(eyeImage(0), path);
     return;
   }
-  vtkNew<vtkImageAppend> sideBySide;
-  sideBySide->SetAppendAxis(0);
-  sideBySide->AddInputData(eyeImage(0));
-  sideBySide->AddInputData(eyeImage(1));
-  sideBySide->Update();
-  WritePNG(sideBySide->GetOutput(), path);
+  WritePNG(SideBySide(eyeImage(0), eyeImage(1)), path);
 }
 
 // DIR/frames/<name>-NNNN.png, NNNN counting from 0001.
@@ -735,12 +745,7 @@ void WriteEyeImages(vtkPathTracedVolumeMapper* mapper, const Options& options,
     auto right = eyeImage(1);
     WritePNG(left, prefix + "-left.png");
     WritePNG(right, prefix + "-right.png");
-    vtkNew<vtkImageAppend> sideBySide;
-    sideBySide->SetAppendAxis(0);
-    sideBySide->AddInputData(left);
-    sideBySide->AddInputData(right);
-    sideBySide->Update();
-    WritePNG(sideBySide->GetOutput(), prefix + "-stereo.png");
+    WritePNG(SideBySide(left, right), prefix + "-stereo.png");
     std::cout << "               wrote " << prefix << "-{left,right,stereo}.png\n";
   }
   else
@@ -1056,12 +1061,10 @@ public:
       }
     }
     const auto t4 = Clock::now();
-    const double stage[Stages] = { milliseconds(t0, t1), milliseconds(t1, t2), milliseconds(t2, t3),
-      milliseconds(t3, t4) };
-    for (int i = 0; i < Stages; ++i)
-    {
-      this->StageMilliseconds[i] = stage[i];
-    }
+    this->StageMilliseconds[CopyStage] = milliseconds(t0, t1);
+    this->StageMilliseconds[StitchStage] = milliseconds(t1, t2);
+    this->StageMilliseconds[SyncedStage] = milliseconds(t2, t3);
+    this->StageMilliseconds[RelightStage] = milliseconds(t3, t4);
     return true;
   }
 
@@ -1612,14 +1615,9 @@ int Serve(const Options& options, vtkPathTracedVolumeMapper* mapper, vtkVolume* 
       // The T the denoiser used for this frame, from its output: a change of light it relit
       // its history for.
       StreamedLighting* lighting = t->Lighting;
-      if (lighting->Denoiser && lighting->Denoiser->GetEyeOutput(0))
+      if (lighting->Denoiser && DenoisedField(lighting->Denoiser, "IlluminationDifference") > 0.0)
       {
-        vtkDataArray* used =
-          lighting->Denoiser->GetEyeOutput(0)->GetFieldData()->GetArray("IlluminationDifference");
-        if (used && used->GetNumberOfTuples() > 0 && used->GetTuple1(0) > 0.0)
-        {
-          ++lighting->FramesWithNewLight;
-        }
+        ++lighting->FramesWithNewLight;
       }
       lighting->PendingIlluminationDifference = 0.0; // this frame took the change in
     }
