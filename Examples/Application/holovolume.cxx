@@ -31,6 +31,7 @@
 #include "vtkPointData.h"
 #include "vtkPolyData.h"
 #include "vtkSMPTools.h"
+#include "vtkTransform.h"
 #include "vtkUnsignedCharArray.h"
 #include "vtkVolume.h"
 #include "vtkXMLImageDataWriter.h"
@@ -101,6 +102,9 @@ struct Options
   double CameraWait = 0.0;
   double ProxyRadius = 2500.0;
   std::string HeadsetPosition = "viewer";
+  // --camera-mount: the camera's position on the headset (volume units, the headset's x right,
+  // y up, z back) and its yaw, pitch and roll against the gaze (degrees).
+  double CameraMount[6] = { 0.0, 0.0, 0.0, 0.0, 0.0, 0.0 };
   double RelightThreshold = 0.05;
   bool SaveEnvironment = false;
   // --denoise: fresh 2-spp frames through the stereo denoiser instead of accumulation.
@@ -168,10 +172,18 @@ Live lighting from a 360-degree camera (Documentation/LiveLighting.md)
       --proxy-radius MM      radius of the room around the camera, in the volume's units
                              (millimetres for NIfTI): lights are re-projected from the
                              camera to the volume's centre through this sphere [2500]
-      --headset-position P   where the camera is, in the volume's coordinates: 'viewer'
-                             (between the rendered eyes), 'center' (the volume's centre:
-                             no re-projection), 'origin', or X,Y,Z; it is upright, its
-                             front lens facing the way the face looks [viewer]
+      --headset-position P   where the headset, and so the camera, is, in the volume's
+                             coordinates: 'viewer' (between the rendered eyes), 'center'
+                             (the volume's centre: no re-projection), 'origin', or X,Y,Z;
+                             it is upright, facing the centre of a still-mode panorama
+                             (turned by --environment-yaw) [viewer]
+      --camera-mount X,Y,Z[,YAW[,PITCH[,ROLL]]]
+                             how the camera sits on the headset: its lens centre X right,
+                             Y up and Z back from the headset's origin (between the eyes),
+                             in volume units, and its front lens turned YAW degrees to the
+                             left of the gaze, PITCH up, ROLL counter-clockwise as the
+                             wearer sees it; e.g. 0,120,40 for a camera on the headband,
+                             12 cm above the eyes [0,0,0: at the eyes, along the gaze]
       --relight-threshold T  the radiance map in use is replaced, and the progressive
                              accumulation restarts, when the newest map differs from it by
                              an illumination difference T at least this (0: every new
@@ -268,6 +280,53 @@ bool ParseHeadsetPosition(
   return std::sscanf(
            text.c_str(), "%lf,%lf,%lf%c", &position[0], &position[1], &position[2], &end) == 3 &&
     std::isfinite(position[0]) && std::isfinite(position[1]) && std::isfinite(position[2]);
+}
+
+// --camera-mount: three to six comma-separated finite numbers (the offset; yaw, pitch, roll, 0
+// where left out).
+bool ParseCameraMount(const std::string& text, double mount[6])
+{
+  std::vector<double> values;
+  std::size_t start = 0;
+  while (start <= text.size())
+  {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    const std::string field = text.substr(start, comma - start);
+    char* end = nullptr;
+    const double value = std::strtod(field.c_str(), &end);
+    if (field.empty() || *end != '\0' || !std::isfinite(value))
+    {
+      return false;
+    }
+    values.push_back(value);
+    start = comma + 1;
+  }
+  if (values.size() < 3 || values.size() > 6)
+  {
+    return false;
+  }
+  std::fill(mount, mount + 6, 0.0);
+  std::copy(values.begin(), values.end(), mount);
+  return true;
+}
+
+// headsetFromCamera for --camera-mount: the offset, then yaw about the headset's up axis
+// (positive turns the front lens, -Z, towards -X, the wearer's left), pitch about the camera's
+// x axis (positive up) and roll about its optical axis.
+void CameraMountMatrix(const double mount[6], vtkMatrix4x4* headsetFromCamera)
+{
+  vtkNew<vtkTransform> transform; // pre-multiplies: T * Ry * Rx * Rz
+  transform->Translate(mount[0], mount[1], mount[2]);
+  transform->RotateY(mount[3]);
+  transform->RotateX(mount[4]);
+  transform->RotateZ(mount[5]);
+  headsetFromCamera->DeepCopy(transform->GetMatrix());
+}
+
+bool HasCameraMount(const Options& options)
+{
+  return std::any_of(std::begin(options.CameraMount), std::end(options.CameraMount),
+    [](double value) { return value != 0.0; });
 }
 
 bool ParseArguments(int argc, char* argv[], Options& options)
@@ -410,6 +469,17 @@ bool ParseArguments(int argc, char* argv[], Options& options)
       options.ProxyRadius = std::atof(value("--proxy-radius"));
     else if (argument == "--headset-position")
       options.HeadsetPosition = value("--headset-position");
+    else if (argument == "--camera-mount")
+    {
+      const std::string mount = value("--camera-mount");
+      if (!ParseCameraMount(mount, options.CameraMount))
+      {
+        std::cerr << "holovolume: --camera-mount takes X,Y,Z[,YAW[,PITCH[,ROLL]]] (volume "
+                     "units, then degrees), not '"
+                  << mount << "'\n";
+        return false;
+      }
+    }
     else if (argument == "--relight-threshold")
       options.RelightThreshold = std::atof(value("--relight-threshold"));
     else if (argument == "--save-environment")
@@ -450,6 +520,12 @@ bool ParseArguments(int argc, char* argv[], Options& options)
   if (!(options.EnvironmentIntensity > 0.0))
   {
     std::cerr << "holovolume: --environment-intensity must be positive (or auto with --camera)\n";
+    return false;
+  }
+  if (options.Camera.empty() && HasCameraMount(options))
+  {
+    std::cerr << "holovolume: --camera-mount says where the 360-degree camera sits on the "
+                 "headset; it needs --camera\n";
     return false;
   }
   if (!options.Camera.empty())
@@ -957,6 +1033,9 @@ public:
     // Each frame takes the newest camera frame once, at its start (UpdateToNewestFrame), so
     // that the stages see the same frame.
     this->Source->AutoAdvanceOff();
+    vtkNew<vtkMatrix4x4> headsetFromCamera;
+    CameraMountMatrix(this->Options_.CameraMount, headsetFromCamera);
+    this->Synced->SetCameraMountTransform(headsetFromCamera);
     if (this->Equirectangular)
     {
       this->Synced->SetInputConnection(this->Source->GetOutputPort());
@@ -1150,10 +1229,11 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
   // Frames. The synced light works in a room frame: +Y up, the frame of an upright headset,
   // in which the camera panorama is defined; the volume's world (RAS for NIfTI, millimetres)
   // is that room turned by environmentToWorld, the same rotation the still mode gives an HDR
-  // panorama. The camera is upright with its front lens along the room's -Z (the way the
-  // face looks, turned by --environment-yaw): the headset pose is the identity rotation and
-  // the camera's position. Q comes out in the room frame, and the mapper turns it into the
-  // world with environmentToWorld. Positions and the proxy radius are in the volume's units.
+  // panorama. The headset is upright, facing the room's -Z (turned by --environment-yaw): its
+  // pose is the identity rotation and its position, and the camera sits on it as
+  // --camera-mount says (by default at its origin, front lens along its -Z). Q comes out in the
+  // room frame, and the mapper turns it into the world with environmentToWorld. Positions and the
+  // proxy radius are in the volume's units.
   double bounds[6];
   volumeData->GetBounds(bounds);
   const double volumeCenter[3] = { 0.5 * (bounds[0] + bounds[1]), 0.5 * (bounds[2] + bounds[3]),
@@ -1187,7 +1267,18 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
   synced->SetHeadsetPose(headsetPose);
   synced->SetVolumeCenter(roomCenter);
   synced->SetProxyRadius(options.ProxyRadius);
-  const double distance = std::sqrt(vtkMath::Distance2BetweenPoints(headsetPosition, volumeCenter));
+  // The camera's pose in the world: the upright headset's, then the mount (room and headset
+  // axes agree, and the world is the room turned by environmentToWorld).
+  vtkNew<vtkMatrix4x4> headsetFromCamera, worldFromCamera;
+  CameraMountMatrix(options.CameraMount, headsetFromCamera);
+  vtkMatrix4x4::Multiply4x4(environmentToWorld, headsetFromCamera, worldFromCamera);
+  double cameraPosition[3], front[3];
+  for (int i = 0; i < 3; ++i)
+  {
+    cameraPosition[i] = headsetPosition[i] + worldFromCamera->GetElement(i, 3);
+    front[i] = -worldFromCamera->GetElement(i, 2);
+  }
+  const double distance = std::sqrt(vtkMath::Distance2BetweenPoints(cameraPosition, volumeCenter));
   const double diagonal = std::sqrt((bounds[1] - bounds[0]) * (bounds[1] - bounds[0]) +
     (bounds[3] - bounds[2]) * (bounds[3] - bounds[2]) +
     (bounds[5] - bounds[4]) * (bounds[5] - bounds[4]));
@@ -1198,15 +1289,23 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
               << options.ProxyRadius << "); give the room's real size, in the volume's units\n";
     return 2;
   }
-  const double front[3] = { -environmentToWorld->GetElement(0, 2),
-    -environmentToWorld->GetElement(1, 2), -environmentToWorld->GetElement(2, 2) };
   std::printf("Camera       %s (%s)\n", options.Camera.c_str(),
     equirectangular ? "equirectangular frames" : options.Calibration.c_str());
+  if (HasCameraMount(options))
+  {
+    std::printf("             mounted (%.0f, %.0f, %.0f) from the headset at (%.0f, %.0f, %.0f), "
+                "turned yaw %.1f, pitch %.1f, roll %.1f degrees\n",
+      options.CameraMount[0], options.CameraMount[1], options.CameraMount[2], headsetPosition[0],
+      headsetPosition[1], headsetPosition[2], options.CameraMount[3], options.CameraMount[4],
+      options.CameraMount[5]);
+  }
   std::printf("Lighting     camera at (%.0f, %.0f, %.0f), %.0f from the volume centre (%.0f, "
-              "%.0f, %.0f); front lens along (%.2f, %.2f, %.2f), upright; proxy room: sphere "
+              "%.0f, %.0f); front lens along (%.2f, %.2f, %.2f)%s; proxy room: sphere "
               "of radius %.0f (volume units: mm for NIfTI)\n",
-    headsetPosition[0], headsetPosition[1], headsetPosition[2], distance, volumeCenter[0],
-    volumeCenter[1], volumeCenter[2], front[0], front[1], front[2], options.ProxyRadius);
+    cameraPosition[0], cameraPosition[1], cameraPosition[2], distance, volumeCenter[0],
+    volumeCenter[1], volumeCenter[2], front[0], front[1], front[2],
+    options.CameraMount[4] == 0.0 && options.CameraMount[5] == 0.0 ? ", upright" : "",
+    options.ProxyRadius);
   if (options.ProxyRadius > 100.0 * diagonal)
   {
     std::cerr << "holovolume: note: the volume is " << diagonal << " units across and the proxy "
@@ -1401,6 +1500,8 @@ struct StreamedLighting
   vtkMatrix4x4* EnvironmentToWorld = nullptr;
   double ProxyRadius = 2500.0;
   double WorldUnitsPerMetre = 1000.0;
+  // Where the camera sits on the head (--camera-mount), in world units.
+  const double* CameraMountOffset = nullptr;
   // T of the maps replaced since the last published frame (the largest).
   double PendingIlluminationDifference = 0.0;
   double LastPose[16] = {};
@@ -1430,11 +1531,14 @@ struct StreamedLighting
     const double center[4] = { volumeCenter[0], volumeCenter[1], volumeCenter[2], 1.0 };
     double roomCenter[4];
     roomFromWorld->MultiplyPoint(center, roomCenter);
-    const double head[3] = { roomFromHead->GetElement(0, 3), roomFromHead->GetElement(1, 3),
-      roomFromHead->GetElement(2, 3) };
-    // The warp re-projects the panorama from the camera through a room of ProxyRadius around
-    // it; a viewer about to leave that room keeps the last pose inside it.
-    if (std::sqrt(vtkMath::Distance2BetweenPoints(head, roomCenter)) < 0.95 * this->ProxyRadius)
+    // The warp re-projects the panorama from the camera, mounted CameraMountOffset from the
+    // head, through a room of ProxyRadius around it; a viewer about to take the camera out of
+    // that room keeps the last pose inside it.
+    const double mountOffset[4] = { this->CameraMountOffset[0], this->CameraMountOffset[1],
+      this->CameraMountOffset[2], 1.0 };
+    double camera[4];
+    roomFromHead->MultiplyPoint(mountOffset, camera);
+    if (std::sqrt(vtkMath::Distance2BetweenPoints(camera, roomCenter)) < 0.95 * this->ProxyRadius)
     {
       const double* pose = &roomFromHead->GetData()[0];
       if (!this->HavePose || !std::equal(pose, pose + 16, this->LastPose))
@@ -1541,11 +1645,11 @@ int Serve(const Options& options, vtkPathTracedVolumeMapper* mapper, vtkVolume* 
       return 2;
     }
     lighting->GetSyncedLight()->SetProxyRadius(options.ProxyRadius);
-    std::printf("Camera       %s (%s), on the headset: its pose is the viewer's head pose; proxy "
-                "room: sphere of radius %.0f (volume units: mm for NIfTI)\n",
+    std::printf("Camera       %s (%s), on the headset: its pose is the viewer's head pose%s; "
+                "proxy room: sphere of radius %.0f (volume units: mm for NIfTI)\n",
       options.Camera.c_str(),
       lighting->IsEquirectangular() ? "equirectangular frames" : options.Calibration.c_str(),
-      options.ProxyRadius);
+      HasCameraMount(options) ? " and --camera-mount" : "", options.ProxyRadius);
     if (!lighting->Open())
     {
       return 1;
@@ -1556,6 +1660,7 @@ int Serve(const Options& options, vtkPathTracedVolumeMapper* mapper, vtkVolume* 
     streamed.Denoiser = options.Denoise ? denoiser.GetPointer() : nullptr;
     streamed.EnvironmentToWorld = environmentToWorld;
     streamed.ProxyRadius = options.ProxyRadius;
+    streamed.CameraMountOffset = options.CameraMount;
     streamed.WorldUnitsPerMetre = output->GetWorldUnitsPerMetre();
   }
   if (!output->Start())
