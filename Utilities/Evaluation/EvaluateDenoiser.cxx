@@ -69,6 +69,7 @@ struct Options
   int RenderPreviousLighting = 1;
   double PreviousLightingRadius = -1.0;      // the denoiser's default
   double WaveletAlbedoGradientWeight = -1.0; // the denoiser's default
+  double StereoAgreementWidth = -1.0;        // the denoiser's default
   int StratifiedSubpixelSamples = -1; // the mapper's default
   bool RelightOnTransferFunctionChange = false;
   double ClassificationScalarTolerance = -1.0; // the denoiser's default
@@ -162,6 +163,10 @@ under the lamp, or with the new transfer function, all along.
                          the wavelet filter's albedo edge-stopping is scaled by 1 - W + W
                          max(g, g'), g and g' the gradient magnitudes, in every denoiser, 0 to
                          1; 0: the whole term everywhere [the denoiser's default, 1]
+  --stereo-agreement-width K
+                         the width of D2's noise test of the other eye's value, in standard
+                         deviations, in every denoiser but the paper's lambda alone (which has
+                         none), 0 to 100; 0: the paper's D2 weights [the denoiser's default, 8]
   --subpixel-samples random|stratified
                          where every render's samples enter their pixels (raw frames,
                          references, the raw-spp curve): independent uniform positions, or each
@@ -184,6 +189,7 @@ constexpr int MethodCount = 9;
 constexpr int ThumbnailMethodCount = 5;
 constexpr int D1Method = 3; // the methods from here on have D1, and D2's figures compare with it
 constexpr int FullMethod = 4;
+constexpr int PaperStereoMethod = 5;
 constexpr int CoverageFilteredMethod = 6;
 constexpr int WithoutStereoCoverageMethod = 7;
 constexpr int PremultipliedStereoBlendMethod = 8;
@@ -888,6 +894,9 @@ int main(int argc, char* argv[])
     else if (arg == "--wavelet-albedo-gradient-weight")
       options.WaveletAlbedoGradientWeight =
         holovolume::NumberOption(program, "--wavelet-albedo-gradient-weight", value(), 0.0, 1.0);
+    else if (arg == "--stereo-agreement-width")
+      options.StereoAgreementWidth =
+        holovolume::NumberOption(program, "--stereo-agreement-width", value(), 0.0, 100.0);
     else if (arg == "--wavelet-depth-from-history")
       options.WaveletDepthFromHistory =
         holovolume::IntegerOption(program, "--wavelet-depth-from-history", value(), 0, 1);
@@ -1113,6 +1122,12 @@ int main(int argc, char* argv[])
                 "gradient magnitude\n",
       options.WaveletAlbedoGradientWeight);
   }
+  if (options.StereoAgreementWidth >= 0.0)
+  {
+    std::printf("\nevery denoiser's D2 but the paper's lambda alone tests the other eye's value "
+                "within %.3g standard deviations\n",
+      options.StereoAgreementWidth);
+  }
   if (options.WaveletDepthFromHistory >= 0)
   {
     std::printf("\nevery denoiser's wavelet filter compares %s first scatter depths\n",
@@ -1307,9 +1322,9 @@ int main(int argc, char* argv[])
         run[2]->SetExponentialAverageAlpha(0.2);
         run[2]->SetClampWidth(0.0);
         run[3]->StereoBlendOff();
-        run[5]->SetStereoAgreementWidth(0.0);
-        run[5]->SetStereoCoverageWidth(0.0);
-        run[5]->StereoUnpremultipliedBlendOff();
+        run[PaperStereoMethod]->SetStereoAgreementWidth(0.0);
+        run[PaperStereoMethod]->SetStereoCoverageWidth(0.0);
+        run[PaperStereoMethod]->StereoUnpremultipliedBlendOff();
         run[WithoutStereoCoverageMethod]->SetStereoCoverageWidth(0.0);
         run[WithoutStereoCoverageMethod]->StereoUnpremultipliedBlendOff();
         run[PremultipliedStereoBlendMethod]->StereoUnpremultipliedBlendOff();
@@ -1345,6 +1360,10 @@ int main(int argc, char* argv[])
           if (options.WaveletAlbedoGradientWeight >= 0.0)
           {
             run[method]->SetWaveletAlbedoGradientWeight(options.WaveletAlbedoGradientWeight);
+          }
+          if (options.StereoAgreementWidth >= 0.0 && method != PaperStereoMethod)
+          {
+            run[method]->SetStereoAgreementWidth(options.StereoAgreementWidth);
           }
           if (options.WaveletDepthFromHistory >= 0)
           {

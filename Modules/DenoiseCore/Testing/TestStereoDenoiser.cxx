@@ -1340,7 +1340,7 @@ TEST(StereoDenoiser, WeakGradientNormalsDoNotShortenTheHistory)
 }
 
 // D2 blends the eyes' D1 results: their errors at corresponding pixels agree far better. The
-// paper's D2 (no noise test) and the default (noise test at 3 standard deviations), where
+// paper's D2 (no noise test) and the default (a noise test at 8 standard deviations), where
 // the eyes see the same light: all they differ by is noise, which both should average.
 TEST(StereoDenoiser, StereoBlendReducesInterEyeDiscrepancy)
 {
@@ -1365,10 +1365,11 @@ TEST(StereoDenoiser, StereoBlendReducesInterEyeDiscrepancy)
   const double full = discrepancy(true, DenoiserParameters().stereoAgreementWidth);
   std::cout << "inter-eye discrepancy: D1 " << d1 << ", paper's D2 " << paper
             << ", D2 with the default noise test " << full << "\n";
-  // Measured 8.5x and 2.0x: the wavelet filter's variance, propagated as if its taps were
-  // independent, underestimates the filtered noise, so the test also keeps some noise apart.
+  // Measured 7.8x and 4.6x: the wavelet filter's variance, propagated as if its taps were
+  // independent, underestimates the filtered noise, so the test keeps some noise apart (at 3
+  // standard deviations, the default before, the cut was 2.0x).
   EXPECT_GT(d1 / paper, 3.0);
-  EXPECT_GT(d1 / full, 1.7);
+  EXPECT_GT(d1 / full, 3.0);
 }
 
 // Where the eyes see a point with different radiance (view-dependent light), the paper's D2
@@ -1425,6 +1426,20 @@ TEST(StereoDenoiser, StereoAgreementKeepsViewDependentLight)
   std::cout << "eyes alike, inter-eye discrepancy: D1 " << same1.discrepancy
             << ", D2 with the noise test " << sameTested.discrepancy << "\n";
   EXPECT_GT(same1.discrepancy / sameTested.discrepancy, 1.7); // measured 2.05
+
+  // The default width is wider: on the head MRI the eyes' view-dependent light is far below
+  // 30 %, and at 3 standard deviations the test kept as much of the eyes' noise apart as it
+  // kept light (Documentation/Denoising.md, "D2's noise test, re-measured"). Here it keeps
+  // about half of what the paper's D2 loses (the test asks for a third), and averages nearly
+  // all of the eyes' noise where they agree.
+  const float defaultWidth = DenoiserParameters().stereoAgreementWidth;
+  const Result apartDefault = run(0.3f, true, defaultWidth);
+  const Result sameDefault = run(0.0f, true, defaultWidth);
+  std::cout << "default width " << defaultWidth << ": eyes 30 % apart " << apartDefault.psnr
+            << " dB, eyes alike discrepancy " << sameDefault.discrepancy << "\n";
+  // Measured 25.7 dB (D1 29.0, the paper's D2 22.3) and 9.1x below D1's discrepancy.
+  EXPECT_GT(apartDefault.psnr, paper.psnr + (d1.psnr - paper.psnr) / 3.0);
+  EXPECT_GT(same1.discrepancy / sameDefault.discrepancy, 6.0);
 }
 
 // Where the eyes' pixels are covered to a different degree at the same point (the silhouette,

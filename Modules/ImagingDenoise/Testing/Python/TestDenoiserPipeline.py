@@ -315,7 +315,7 @@ class DenoiserPipelineTest(unittest.TestCase):
         denoiser.SetNormalTestGradient(2.0)  # clamped to a gradient magnitude
         self.assertEqual(denoiser.GetNormalTestGradient(), 1.0)
         denoiser.SetNormalTestGradient(0.3)
-        self.assertEqual(denoiser.GetStereoAgreementWidth(), 3.0)  # beyond the paper; 0 is its D2
+        self.assertEqual(denoiser.GetStereoAgreementWidth(), 8.0)  # beyond the paper; 0 is its D2
         denoiser.SetStereoAgreementWidth(-1.0)  # clamped: 0 switches the test off
         self.assertEqual(denoiser.GetStereoAgreementWidth(), 0.0)
         self.assertEqual(mapper.RenderStereoFrame(volume, left[0], left[1], right[0],

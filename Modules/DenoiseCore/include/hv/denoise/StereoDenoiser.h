@@ -244,11 +244,12 @@ struct DenoiserParameters
   bool stereoAlbedoFromHistory = true;
   // Beyond the paper: D2 blends the other eye only as far as the eyes' D1 values agree within
   // this many standard deviations of their noise (stereoAgreement); 0: the paper's lambda
-  // alone. On the head MRI at 1440x936 the paper's D2 loses 26 % of D1's equal-quality spp
-  // (still view at frame 16: raw 286 against 388); with 3 D2 loses 1 % (384) and the eyes'
-  // error difference is smaller, but their noise discrepancy falls 1.7-2.5x instead of
-  // 2.2-3.1x: what it no longer averages is real difference between the views.
-  float stereoAgreementWidth = 3.0f;
+  // alone. It keeps view-dependent light apart: where the eyes see a wall's light 30 % apart,
+  // 3 keeps D1's PSNR within 0.6 dB, 8 keeps half of what the paper's D2 loses. On the head
+  // MRI, since D2's coverage test and guides, 8 averages more of the eyes' noise than 3 (inside
+  // the silhouette 3.2-5.7x below D1's instead of 2.3-4.4x) for at most 1 % of a still view's
+  // spp at frame 16 (Documentation/Denoising.md, "D2's noise test, re-measured").
+  float stereoAgreementWidth = 8.0f;
   // Beyond the paper: D2 blends the other eye only as far as the eyes' coverages at the point
   // (their D1 alpha) agree within this many standard deviations of their accumulated noise
   // (crossViewCoverage, as for D1's cross-view samples). At the silhouette each eye sees the
