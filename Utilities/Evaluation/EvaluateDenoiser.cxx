@@ -1122,11 +1122,16 @@ int main(int argc, char* argv[])
                 "gradient magnitude\n",
       options.WaveletAlbedoGradientWeight);
   }
-  if (options.StereoAgreementWidth >= 0.0)
+  if (options.StereoAgreementWidth > 0.0)
   {
-    std::printf("\nevery denoiser's D2 but the paper's lambda alone tests the other eye's value "
-                "within %.3g standard deviations\n",
+    std::printf("\nevery denoiser's D2 tests the other eye's value within %.3g standard "
+                "deviations (the paper's lambda alone: no test)\n",
       options.StereoAgreementWidth);
+  }
+  else if (options.StereoAgreementWidth == 0.0)
+  {
+    std::printf("\nevery denoiser's D2 blends the other eye's value without a noise test, as "
+                "the paper's does\n");
   }
   if (options.WaveletDepthFromHistory >= 0)
   {
