@@ -1267,11 +1267,11 @@ int RenderLive(const Options& options, const Scene& scene, vtkImageData* volumeD
   synced->SetHeadsetPose(headsetPose);
   synced->SetVolumeCenter(roomCenter);
   synced->SetProxyRadius(options.ProxyRadius);
-  // The camera's pose in the world: the upright headset's, then the mount (room and headset
-  // axes agree, and the world is the room turned by environmentToWorld).
-  vtkNew<vtkMatrix4x4> headsetFromCamera, worldFromCamera;
-  CameraMountMatrix(options.CameraMount, headsetFromCamera);
-  vtkMatrix4x4::Multiply4x4(environmentToWorld, headsetFromCamera, worldFromCamera);
+  // The camera's pose in the world: the upright headset's, then the mount Build() gave the
+  // synced light (room and headset axes agree, and the world is the room turned by
+  // environmentToWorld).
+  vtkNew<vtkMatrix4x4> worldFromCamera;
+  vtkMatrix4x4::Multiply4x4(environmentToWorld, synced->GetCameraMountTransform(), worldFromCamera);
   double cameraPosition[3], front[3];
   for (int i = 0; i < 3; ++i)
   {
@@ -1500,8 +1500,6 @@ struct StreamedLighting
   vtkMatrix4x4* EnvironmentToWorld = nullptr;
   double ProxyRadius = 2500.0;
   double WorldUnitsPerMetre = 1000.0;
-  // Where the camera sits on the head (--camera-mount), in world units.
-  const double* CameraMountOffset = nullptr;
   // T of the maps replaced since the last published frame (the largest).
   double PendingIlluminationDifference = 0.0;
   double LastPose[16] = {};
@@ -1531,11 +1529,13 @@ struct StreamedLighting
     const double center[4] = { volumeCenter[0], volumeCenter[1], volumeCenter[2], 1.0 };
     double roomCenter[4];
     roomFromWorld->MultiplyPoint(center, roomCenter);
-    // The warp re-projects the panorama from the camera, mounted CameraMountOffset from the
-    // head, through a room of ProxyRadius around it; a viewer about to take the camera out of
+    // The warp re-projects the panorama from the camera, mounted on the head as the synced light
+    // has it, through a room of ProxyRadius around it; a viewer about to take the camera out of
     // that room keeps the last pose inside it.
-    const double mountOffset[4] = { this->CameraMountOffset[0], this->CameraMountOffset[1],
-      this->CameraMountOffset[2], 1.0 };
+    vtkEnvironmentSyncedLight* synced = this->Lighting->GetSyncedLight();
+    vtkMatrix4x4* headFromCamera = synced->GetCameraMountTransform();
+    const double mountOffset[4] = { headFromCamera->GetElement(0, 3),
+      headFromCamera->GetElement(1, 3), headFromCamera->GetElement(2, 3), 1.0 };
     double camera[4];
     roomFromHead->MultiplyPoint(mountOffset, camera);
     if (std::sqrt(vtkMath::Distance2BetweenPoints(camera, roomCenter)) < 0.95 * this->ProxyRadius)
@@ -1546,7 +1546,6 @@ struct StreamedLighting
         // Set only when it moved: a new pose makes the synced light execute again.
         std::copy(pose, pose + 16, this->LastPose);
         this->HavePose = true;
-        vtkEnvironmentSyncedLight* synced = this->Lighting->GetSyncedLight();
         synced->SetHeadsetPose(roomFromHead);
         synced->SetVolumeCenter(roomCenter);
       }
@@ -1660,7 +1659,6 @@ int Serve(const Options& options, vtkPathTracedVolumeMapper* mapper, vtkVolume* 
     streamed.Denoiser = options.Denoise ? denoiser.GetPointer() : nullptr;
     streamed.EnvironmentToWorld = environmentToWorld;
     streamed.ProxyRadius = options.ProxyRadius;
-    streamed.CameraMountOffset = options.CameraMount;
     streamed.WorldUnitsPerMetre = output->GetWorldUnitsPerMetre();
   }
   if (!output->Start())
