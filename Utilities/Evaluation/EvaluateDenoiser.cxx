@@ -34,6 +34,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -47,6 +48,16 @@
 
 namespace
 {
+// Wall-clock minutes since `start`, one decimal, for the progress lines on standard error.
+std::string MinutesSince(std::chrono::steady_clock::time_point start)
+{
+  const double minutes =
+    std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() / 60.0;
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.1f", minutes);
+  return text;
+}
+
 struct Options
 {
   std::string Volume = holovolume::DefaultVolume();
@@ -1002,8 +1013,12 @@ int main(int argc, char* argv[])
       holovolume::StereoEyeMatrices(camera, aspect, 64.0, eye, views[eye], projections[eye]);
     }
   };
+  // showProgress: a dot on standard error for every sixteenth of the passes, for the long
+  // phases that print nothing else meanwhile (the static reference takes 20 minutes at
+  // 1440x936 on the 2-core machine).
   auto renderReference = [&](vtkImageData* environment, vtkMatrix4x4* views[2],
-                           vtkMatrix4x4* projections[2], int samples, Reference& out)
+                           vtkMatrix4x4* projections[2], int samples, Reference& out,
+                           bool showProgress = false)
   {
     reference->SetEnvironmentMapData(environment);
     reference->ResetAccumulation();
@@ -1015,10 +1030,15 @@ int main(int argc, char* argv[])
       depthSum[e].assign(pixels, 0.0f);
       depthCount[e].assign(pixels, 0);
     }
-    for (int k = 0; k < samples / 64; ++k)
+    const int passes = samples / 64;
+    for (int k = 0; k < passes; ++k)
     {
       reference->RenderStereoFrame(referenceVolume, views[0], projections[0], views[1],
         projections[1], options.Width, options.Height);
+      if (showProgress && (16 * (k + 1)) / passes != (16 * k) / passes)
+      {
+        std::cerr << "." << std::flush;
+      }
       for (int e = 0; e < 2; ++e)
       {
         vtkPointData* buffers = reference->GetEyeOutput(e)->GetPointData();
@@ -1170,9 +1190,10 @@ int main(int argc, char* argv[])
     vtkMatrix4x4* views[2] = { v0, v1 };
     vtkMatrix4x4* projections[2] = { p0, p1 };
     eyeMatrices(35.0, views, projections);
-    std::cerr << "static reference (" << 4 * options.ReferenceSamples << " spp)...\n";
-    renderReference(baseEnvironment, views, projections, 4 * options.ReferenceSamples,
-      staticReference);
+    const auto phaseStart = std::chrono::steady_clock::now();
+    std::cerr << "static reference (" << 4 * options.ReferenceSamples << " spp) ";
+    renderReference(
+      baseEnvironment, views, projections, 4 * options.ReferenceSamples, staticReference, true);
     vtkNew<vtkPathTracedVolumeMapper> curve;
     curve->SetInputData(volumeData);
     curve->SetEnvironmentToWorldMatrix(environmentToWorld);
@@ -1194,8 +1215,10 @@ int main(int argc, char* argv[])
             hv::denoise::displayPSNR(Display(curve->GetEyeOutput(1)), staticReference.eye[1]));
         rawCurve.emplace_back(next, psnr);
         next *= 2;
+        std::cerr << "." << std::flush;
       }
     }
+    std::cerr << " and raw curve: " << MinutesSince(phaseStart) << " min\n";
     std::printf("\n## Raw PSNR against samples per pixel (static view)\n\n| spp |");
     for (auto& point : rawCurve)
     {
@@ -1241,6 +1264,7 @@ int main(int argc, char* argv[])
       std::cerr << "holovolume-denoise-evaluation: unknown sequence '" << sequence << "'\n";
       return 2;
     }
+    const auto sequenceStart = std::chrono::steady_clock::now();
     std::cerr << "sequence " << sequence;
     // The light switch and the new transfer function: one change halfway, counted against the
     // frame before it and against a control with the change made from the start.
@@ -1669,7 +1693,7 @@ int main(int argc, char* argv[])
       }
       std::cerr << (repetition + 1 < runs ? "\n        run " + std::to_string(repetition + 2) : "");
     }
-    std::cerr << "\n";
+    std::cerr << " " << MinutesSince(sequenceStart) << " min\n";
     // The control has the run's own frames from the switch on, so a method without a history
     // (raw, spatial only) must measure the same there to the last bit; if not, the control
     // compares more than the history and its recovery figures would mislead.
