@@ -31,6 +31,7 @@
 
 #include "hv/DefaultInitAllocator.h"
 
+#include <atomic>
 #include <cstdint>
 #include <cstdlib>
 #include <new>
@@ -76,13 +77,20 @@ struct PlaneAllocator : hv::DefaultInitAllocator<T>
 #ifdef HV_PLANES_MAPPED
     if (n * sizeof(T) >= DirectMapBytes)
     {
-      void* mapped =
-        mmap(nullptr, n * sizeof(T), PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+      // Each plane starts at its own cache line of the page (the next of 64, 17 lines on):
+      // planes that all began on a page boundary would put a loop's pixel k of every plane at
+      // the same address modulo 4 KiB, where the loads of one plane wait on the stores to another
+      // (4K aliasing) and share a set of the L1 cache. Heap blocks, which the planes were before,
+      // fall at varied offsets of their pages.
+      static std::atomic<unsigned> planesMapped{ 0 };
+      const std::size_t stagger = (planesMapped++ * 17u % 64u) * 64u;
+      void* mapped = mmap(nullptr, n * sizeof(T) + stagger, PROT_READ | PROT_WRITE,
+        MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
       if (mapped == MAP_FAILED)
       {
         throw std::bad_alloc();
       }
-      return static_cast<T*>(mapped);
+      return reinterpret_cast<T*>(static_cast<char*>(mapped) + stagger);
     }
 #endif
     void* memory = std::calloc(n, sizeof(T));
@@ -99,7 +107,11 @@ struct PlaneAllocator : hv::DefaultInitAllocator<T>
 #ifdef HV_PLANES_MAPPED
     if (n * sizeof(T) >= DirectMapBytes)
     {
-      munmap(memory, n * sizeof(T));
+      // The mapping starts on a page boundary (4 KiB or a multiple of it) and the stagger is
+      // below 4 KiB, so rounding the plane down to 4 KiB finds it.
+      const std::uintptr_t address = reinterpret_cast<std::uintptr_t>(memory);
+      const std::uintptr_t page = address & ~static_cast<std::uintptr_t>(4095);
+      munmap(reinterpret_cast<void*>(page), n * sizeof(T) + (address - page));
       return;
     }
 #endif
