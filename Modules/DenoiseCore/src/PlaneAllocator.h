@@ -79,9 +79,10 @@ struct PlaneAllocator : hv::DefaultInitAllocator<T>
     {
       // Each plane starts at its own cache line of the page (the next of 64, 17 lines on):
       // planes that all began on a page boundary would put a loop's pixel k of every plane at
-      // the same address modulo 4 KiB, where the loads of one plane wait on the stores to another
-      // (4K aliasing) and share a set of the L1 cache. Heap blocks, which the planes were before,
-      // fall at varied offsets of their pages.
+      // the same address modulo 4 KiB, where a load from one plane can be held up by a store to
+      // another (4K aliasing) and all of them fall in one set of the L1 cache. Heap blocks, which
+      // the planes were before, fall at varied offsets of their pages. (Not measured apart: the
+      // hour of the change was too noisy to time it; Documentation/Denoising.md.)
       static std::atomic<unsigned> planesMapped{ 0 };
       const std::size_t stagger = (planesMapped++ * 17u % 64u) * 64u;
       void* mapped = mmap(nullptr, n * sizeof(T) + stagger, PROT_READ | PROT_WRITE,
