@@ -35,6 +35,10 @@ struct vtkEnvironmentSyncedLight::Internals
   // "FrameIndex" when the source provides one.
   vtkMTimeType LastInputTime = 0;
   double LastFrameIndex = -1.0;
+  // Distinct input frames seen, the output's "FrameIndex" for sources that give none: the
+  // denoiser counts T once per index, and without it would count only the first frame's.
+  // Never reset, so that an index is not given twice.
+  double DistinctFrames = -1.0;
   std::string LoadedResponseFile;
   cv::Mat Panorama;
   // Warn once when the volume leaves the proxy room, not on every frame it stays outside.
@@ -364,13 +368,18 @@ int vtkEnvironmentSyncedLight::RequestData(
 
   // A new camera frame, or the same frame again for a new pose or setting.
   double frameIndex = -1.0;
-  if (vtkDataArray* index =
-        input->GetFieldData() ? input->GetFieldData()->GetArray("FrameIndex") : nullptr)
+  vtkDataArray* sourceIndex =
+    input->GetFieldData() ? input->GetFieldData()->GetArray("FrameIndex") : nullptr;
+  if (sourceIndex)
   {
-    frameIndex = index->GetNumberOfTuples() > 0 ? index->GetComponent(0, 0) : -1.0;
+    frameIndex = sourceIndex->GetNumberOfTuples() > 0 ? sourceIndex->GetComponent(0, 0) : -1.0;
   }
   const bool newFrame = input->GetMTime() != this->Internal->LastInputTime ||
     frameIndex != this->Internal->LastFrameIndex;
+  if (newFrame)
+  {
+    this->Internal->DistinctFrames += 1.0;
+  }
 
   const hv::lighting::EnvironmentSynchronizer::Result* result = nullptr;
   try
@@ -404,7 +413,8 @@ int vtkEnvironmentSyncedLight::RequestData(
   fieldData->Initialize();
   AddScalarField(fieldData, "IlluminationDifference", result->IlluminationDifference);
   AddScalarField(fieldData, "TemporalBlendWeight", result->TemporalBlendWeight);
-  AddScalarField(fieldData, "FrameIndex", frameIndex);
+  AddScalarField(
+    fieldData, "FrameIndex", sourceIndex ? frameIndex : this->Internal->DistinctFrames);
   vtkNew<vtkFloatArray> similarity;
   similarity->SetName("PatchSimilarity");
   if (!result->PatchSimilarity.empty())

@@ -24,7 +24,9 @@
  * Output port 0: Q as float RGB "Radiance" in world orientation (EnvironmentToWorldMatrix of
  * vtkPathTracedVolumeMapper stays identity), VTK row order (j = 0 the nadir); field data
  * "IlluminationDifference" (T), "PatchSimilarity" (N x N, row-major from the zenith),
- * "FrameIndex" (passed from the input when present). Connect it with
+ * "FrameIndex" (passed from the input when present, else the count of distinct input frames
+ * this filter has seen, so that vtkStereoSpatioTemporalDenoiser can tell a new camera frame
+ * from a re-execution with the same one). Connect it with
  * vtkPathTracedVolumeMapper::SetEnvironmentMapConnection(): the mapper's accumulation
  * restarts when Q changes.
  * Output port 1: the detected lights as vtkPolyData, one vertex per light at VolumeCenter +

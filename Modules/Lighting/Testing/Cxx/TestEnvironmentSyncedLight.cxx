@@ -184,6 +184,9 @@ int TestEnvironmentSyncedLight(int, char*[])
     expect(AngleDegrees(point, expected) < 2.0, "the light's point lies in its direction");
   }
   expect(FieldValue(q, "IlluminationDifference") > 0.99, "the first frame has T close to 1");
+  // The producer gives no "FrameIndex": the output counts the distinct input frames instead, so
+  // that the denoiser can tell a new camera frame from a re-execution with the same one.
+  const double firstIndex = FieldValue(q, "FrameIndex");
 
   // Same input again: no re-execution.
   const vtkMTimeType outputTime = q->GetMTime();
@@ -197,6 +200,9 @@ int TestEnvironmentSyncedLight(int, char*[])
   const double repeatT = synced->GetIlluminationDifference();
   std::cout << "T repeated frame " << repeatT << "\n";
   expect(repeatT < 0.05, "a repeated frame gives T < 0.05");
+  const double repeatIndex = FieldValue(synced->GetOutput(), "FrameIndex");
+  expect(repeatIndex == firstIndex + 1.0,
+    "a new input frame without a FrameIndex of its own gets the next index");
 
   // A new pose with the same frame: re-executes, T is kept.
   pose->SetElement(0, 3, 0.3);
@@ -205,6 +211,8 @@ int TestEnvironmentSyncedLight(int, char*[])
   expect(synced->GetOutput()->GetMTime() != outputTime, "a new pose re-executes");
   expect(std::fabs(synced->GetIlluminationDifference() - repeatT) < 1e-6,
     "a new pose is not a lighting change");
+  expect(FieldValue(synced->GetOutput(), "FrameIndex") == repeatIndex,
+    "a new pose with the same input frame keeps its index");
 
   // A second lamp switches on behind the camera: T rises above 0.5 with the least similar
   // patch (the paper's text), but not with the most similar patch (Eq. 1 as printed).
@@ -214,6 +222,8 @@ int TestEnvironmentSyncedLight(int, char*[])
   const double switchT = synced->GetIlluminationDifference();
   std::cout << "T lamp on " << switchT << "\n";
   expect(switchT > 0.5, "a lamp switching on gives T > 0.5");
+  expect(FieldValue(synced->GetOutput(), "FrameIndex") == repeatIndex + 1.0,
+    "the lamp's frame gets the next index");
   expect(FieldValue(synced->GetOutput(), "IlluminationDifference") == switchT,
     "T travels in the field data");
   auto* similarity = synced->GetOutput()->GetFieldData()->GetArray("PatchSimilarity");
