@@ -37,6 +37,10 @@ public:
   int DataStamp = 0;
   bool HasIlluminationFrame = false;
   double IlluminationFrame = 0.0;
+  // Without a "FrameIndex", the illumination input's identity: the data object and its
+  // modification time.
+  vtkDataObject* IlluminationInput = nullptr;
+  vtkMTimeType IlluminationInputTime = 0;
   double LastIlluminationDifference = 0.0;
   double LastMilliseconds = 0.0;
   // Each eye's denoised image, written into the same array frame after frame while no one but
@@ -403,16 +407,30 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
                     "use SetIlluminationDifference().");
       return 0;
     }
+    // T belongs to the lighting frame it was measured on, and counts once: an illumination
+    // input that has not changed since the last frame brings no new lighting, even though its
+    // field data still carries the T of its last change.
     double environmentFrame;
     if (FieldValue(environment, "FrameIndex", environmentFrame))
     {
       if (internals.HasIlluminationFrame && environmentFrame == internals.IlluminationFrame)
       {
-        illuminationDifference = 0.0; // no new lighting since the last frame
+        illuminationDifference = 0.0;
       }
       internals.HasIlluminationFrame = true;
       internals.IlluminationFrame = environmentFrame;
     }
+    else
+    {
+      if (environment == internals.IlluminationInput &&
+        environment->GetMTime() == internals.IlluminationInputTime)
+      {
+        illuminationDifference = 0.0;
+      }
+      internals.HasIlluminationFrame = false;
+    }
+    internals.IlluminationInput = environment;
+    internals.IlluminationInputTime = environment->GetMTime();
   }
 
   hv::denoise::DenoiserParameters& p = internals.Denoiser.parameters();

@@ -27,7 +27,8 @@
  * Input port 2 (optional): anything whose field data carries "IlluminationDifference", such
  * as vtkEnvironmentSyncedLight's output; it supplies T when connected, the
  * IlluminationDifference setting otherwise. T counts once per distinct "FrameIndex" of that
- * input: when the environment has not produced a new frame, the lighting has not changed.
+ * input, or, where it has none, once per modification of it: when the environment has not
+ * produced a new frame, the lighting has not changed.
  *
  * Output port 0 and 1: the denoised left and right eye: the input image with "Radiance"
  * replaced (linear, premultiplied RGBA) and field data "IlluminationDifference",

@@ -2361,3 +2361,61 @@ TEST(StereoDenoiser, UnseenPixelsPassThrough)
     }
   }
 }
+
+// Images of a few pixels, and images one pixel wide or high: every stage's stencils, spans,
+// lookups and runs reach past the image's edges there on every side at once. The camera moves
+// so that the wall's edges cross the image, a third of the pixels lose their scatter point (as
+// partly covered pixels do), and the light changes every other frame, with the previous light's
+// paths given, so that the relighting stages run too. Each frame must be denoised with finite
+// values; the sanitizer build (Documentation/BuildingAndTesting.md) checks the memory accesses.
+TEST(StereoDenoiser, TinyAndThinImages)
+{
+  const int sizes[][2] = { { 1, 1 }, { 1, 2 }, { 2, 1 }, { 2, 2 }, { 3, 5 }, { 5, 3 }, { 1, 9 },
+    { 9, 1 }, { 17, 3 }, { 3, 17 }, { 31, 2 }, { 2, 31 } };
+  std::mt19937 random(11);
+  std::bernoulli_distribution dropScatterPoint(1.0 / 3.0);
+  for (const auto& size : sizes)
+  {
+    const int width = size[0], height = size[1];
+    StereoDenoiser denoiser;
+    hvtest::SceneState scene, previousLighting;
+    hvtest::EyeBuffers eyes[2];
+    std::vector<float> outputs[2];
+    std::int64_t seen = 0, unseen = 0;
+    for (std::uint32_t t = 0; t < 6; ++t)
+    {
+      previousLighting = scene;
+      scene.cameraPosition.x = -2.5f + 1.0f * static_cast<float>(t);
+      scene.irradianceScale = t % 2 ? 1.5f : 1.0f;
+      for (int e = 0; e < 2; ++e)
+      {
+        hvtest::renderEye(scene, e, width, height, t, eyes[e]);
+        if (t > 0)
+        {
+          hvtest::withPreviousLight(previousLighting, e, t, eyes[e]);
+        }
+        for (unsigned char& valid : eyes[e].valid)
+        {
+          valid = valid && !dropScatterPoint(random);
+          seen += valid ? 1 : 0;
+          unseen += valid ? 0 : 1;
+        }
+        outputs[e].assign(eyes[e].radiance.size(), std::numeric_limits<float>::quiet_NaN());
+      }
+      const EyeFrame frames[2] = { eyes[0].frame(), eyes[1].frame() };
+      float* out[2] = { outputs[0].data(), outputs[1].data() };
+      std::string error;
+      ASSERT_TRUE(denoiser.denoise(frames, 2, t % 2 ? 0.8f : 0.0f, out, error))
+        << width << "x" << height << ", frame " << t << ": " << error;
+      for (int e = 0; e < 2; ++e)
+      {
+        const auto finite = std::count_if(
+          outputs[e].begin(), outputs[e].end(), [](float v) { return std::isfinite(v); });
+        EXPECT_EQ(static_cast<std::size_t>(finite), outputs[e].size())
+          << width << "x" << height << ", frame " << t << ", eye " << e;
+      }
+    }
+    EXPECT_GT(seen, 0) << width << "x" << height;
+    EXPECT_GT(unseen, 0) << width << "x" << height;
+  }
+}

@@ -8,7 +8,8 @@
 // 2. the volume then jumps sideways: pixels it uncovered show background (no ghost: mean
 //    coverage below 0.01 where the old volume was; measured 0.0007), and with the volume's
 //    motion compensated the moved frame still gains 6 dB (measured +12.6 dB);
-// 3. T from port 2's field data reaches w_v: T = 0.9 leaves a gate of zero;
+// 3. T from port 2's field data reaches w_v: T = 0.9 leaves a gate of zero, the next frame
+//    under the same input gets T = 0, and the input modified gets its T again;
 // 4. re-executing after a parameter change does not count the frame twice;
 // 5. a frame reports its progress: ProgressEvent at 0 (the executive), after each of the first
 //    four stages (the denoiser) and at 1 (the executive), in order;
@@ -210,6 +211,24 @@ int TestStereoSpatioTemporalDenoiser(int, char*[])
   if (std::abs(received - 0.9) > 1e-9 || gate > 1e-6)
   {
     std::cerr << "FAILED: T from the illumination input did not drop the history\n";
+    ++failures;
+  }
+  // The next frame under the same, unmodified input (it has no "FrameIndex") brings no new
+  // lighting: its T counted once. Modified, it counts again.
+  scene.RenderStereo(Size);
+  denoiser->Update();
+  const double keptT = FieldValue(denoiser->GetEyeOutput(1), "IlluminationDifference");
+  const double keptGate = FieldValue(denoiser->GetEyeOutput(1), "TemporalWeight");
+  environment->Modified();
+  scene.RenderStereo(Size);
+  denoiser->Update();
+  const double againT = FieldValue(denoiser->GetEyeOutput(1), "IlluminationDifference");
+  std::cout << "the next frame under the same illumination input: T " << keptT
+            << ", temporal weight " << keptGate << "; the input modified: T " << againT << "\n";
+  if (keptT != 0.0 || keptGate < 0.9 || std::abs(againT - 0.9) > 1e-9)
+  {
+    std::cerr << "FAILED: T from an illumination input without FrameIndex did not count once "
+                 "per modification of it\n";
     ++failures;
   }
 
