@@ -147,6 +147,7 @@ int TestStereoSpatioTemporalDenoiserSteadyMemory(int, char*[])
       denoisertest::FieldValue(denoiser->GetEyeOutput(0), "IlluminationDifference") > 0.5 ? 1 : 0;
   }
   const MemoryInUse end = MeasureMemory();
+
   const long long heapGrowth = end.HeapBytes - start.HeapBytes;
   const long long addressSpaceGrowth = end.AddressSpaceBytes - start.AddressSpaceBytes;
   std::cout << "over " << Cycle << " frames after a cycle's warm-up (" << relitFrames
@@ -162,6 +163,13 @@ int TestStereoSpatioTemporalDenoiserSteadyMemory(int, char*[])
     std::cerr << "FAILED: the session did not go through its lamp switches and transfer "
                  "function changes\n";
     ++failures;
+  }
+  if (start.HeapBytes == 0)
+  {
+    // AddressSanitizer's allocator replaces glibc's, and its mallinfo2 reports nothing.
+    std::cout << "memory not checked: the heap in use reads 0, so malloc is not glibc's (a "
+                 "sanitizer build?)\n";
+    return failures == 0 ? VTK_SKIP_RETURN_CODE : EXIT_FAILURE;
   }
   // Measured: 0.4-2 KiB over the cycle, and flat over four more. A leaked 64x64 RGBA float eye
   // image per frame would add 4.4 MiB; the limit is crossed by a leak of 1 KiB a frame.
