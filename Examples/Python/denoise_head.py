@@ -17,11 +17,11 @@ import sys
 
 import holovolume
 import numpy as np
-from head_scene import HeadScene, add_scene_arguments, check_scene_arguments, write_png
+from head_scene import (HeadScene, add_scene_arguments, check_scene_arguments, display,
+                        write_png)
 from vtkmodules.util.misc import calldata_type
 from vtkmodules.util.numpy_support import vtk_to_numpy
 from vtkmodules.util.vtkConstants import VTK_STRING
-from vtkmodules.vtkCommonDataModel import vtkImageData
 
 parser = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -78,14 +78,6 @@ for frame in range(args.frames):
     disoccluded = 100 * fields.GetArray("DisoccludedFraction").GetValue(0)
     print(f"  frame {frame:3d}: mean history {history:5.1f} frames,"
           f" disoccluded {disoccluded:5.1f} % (left eye)")
-
-
-def display(radiance_image, tone_mapper):
-    """The tone-mapped, sRGB-encoded image of a radiance image (premultiplied RGBA bytes)."""
-    image = vtkImageData()
-    if not tone_mapper.ComputeDisplayImage(radiance_image, image):
-        sys.exit("tone mapping failed (see the error above)")
-    return image
 
 
 def display_rgb(image):

@@ -8,7 +8,7 @@ import os
 import sys
 
 import holovolume
-from vtkmodules.vtkCommonDataModel import vtkPiecewiseFunction
+from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPiecewiseFunction
 from vtkmodules.vtkCommonMath import vtkMatrix4x4
 from vtkmodules.vtkCommonTransforms import vtkTransform
 from vtkmodules.vtkIOImage import vtkNIFTIImageReader, vtkPNGWriter
@@ -61,6 +61,14 @@ def write_png(image, file_name):
     writer.Write()
     if writer.GetErrorCode():
         sys.exit(f"could not write {file_name} (see the error above)")
+
+
+def display(radiance_image, tone_mapper):
+    """The tone-mapped, sRGB-encoded image of a radiance image (premultiplied RGBA bytes)."""
+    image = vtkImageData()
+    if not tone_mapper.ComputeDisplayImage(radiance_image, image):
+        sys.exit("tone mapping failed (see the error above)")
+    return image
 
 
 class HeadScene:

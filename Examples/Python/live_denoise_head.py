@@ -24,12 +24,11 @@ import argparse
 import sys
 
 import holovolume
-import numpy as np
-from head_scene import HeadScene, add_scene_arguments, check_scene_arguments, write_png
+from head_scene import (HeadScene, add_scene_arguments, check_scene_arguments, display,
+                        write_png)
 from vtkmodules.util.misc import calldata_type
 from vtkmodules.util.numpy_support import vtk_to_numpy
 from vtkmodules.util.vtkConstants import VTK_STRING
-from vtkmodules.vtkCommonDataModel import vtkImageData
 from vtkmodules.vtkCommonMath import vtkMatrix4x4
 
 # The mean radiance the first radiance map is scaled to, that of typical HDR panoramas (as
@@ -159,14 +158,7 @@ for frame in range(args.frames):
           f" {mean_radiance(mapper.GetEyeOutput(0)):8.4f} {mean_radiance(left):9.4f}")
 
 
-def display(radiance_image):
-    image = vtkImageData()
-    if not mapper.ComputeDisplayImage(radiance_image, image):
-        sys.exit("tone mapping failed (see the error above)")
-    return image
-
-
 for eye, name in ((0, "left"), (1, "right")):
     file_name = f"{args.output}-{name}.png"
-    write_png(display(denoiser.GetEyeOutput(eye)), file_name)
+    write_png(display(denoiser.GetEyeOutput(eye), mapper), file_name)
     print(f"wrote {file_name}")

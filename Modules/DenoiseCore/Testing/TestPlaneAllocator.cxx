@@ -6,32 +6,19 @@
 // planes allocated after an earlier one was freed, when glibc's malloc has raised its mmap
 // threshold and calloc would clear (write) a heap block and free would keep it.
 #include "PlaneAllocator.h"
+#include "ProcessMemory.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cstdio>
 #include <vector>
 
 #if defined(__linux__)
-#include <unistd.h>
-
 namespace
 {
-// Resident bytes of this process (/proc/self/statm's second field, in pages).
 long long ResidentBytes()
 {
-  std::FILE* statm = std::fopen("/proc/self/statm", "r");
-  long long size = 0, resident = -1;
-  if (statm)
-  {
-    if (std::fscanf(statm, "%lld %lld", &size, &resident) != 2)
-    {
-      resident = -1;
-    }
-    std::fclose(statm);
-  }
-  return resident < 0 ? -1 : resident * sysconf(_SC_PAGESIZE);
+  return hvtest::ReadProcessMemory().ResidentBytes;
 }
 }
 

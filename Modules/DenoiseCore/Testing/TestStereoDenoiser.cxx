@@ -5,6 +5,7 @@
 // static view, no ghost where a moving object uncovers the wall, the reaction to T, D2's
 // effect on the inter-eye discrepancy, thread-count independence and bad input.
 #include "DenoiseTestScene.h"
+#include "ProcessMemory.h"
 #include "hv/denoise/StereoDenoiser.h"
 
 #include <gtest/gtest.h>
@@ -1618,22 +1619,6 @@ TEST(StereoDenoiser, SizeChangeStartsOver)
 }
 
 #if defined(__linux__)
-// The process's address space now, in bytes (/proc/self/statm's first field, in pages).
-std::size_t addressSpaceBytes()
-{
-  std::FILE* statm = std::fopen("/proc/self/statm", "r");
-  unsigned long pages = 0;
-  if (statm)
-  {
-    if (std::fscanf(statm, "%lu", &pages) != 1)
-    {
-      pages = 0;
-    }
-    std::fclose(statm);
-  }
-  return static_cast<std::size_t>(pages) * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
-}
-
 // Out of memory is an error, not a crash. In a child process whose address space is limited
 // to 256 MB more than it holds, a 1440x936 stereo frame (whose planes take about 960 MB) is
 // refused with a message that says how much it needs; with the limit lifted, the same
@@ -1651,7 +1636,8 @@ void denoiseOutOfMemoryAndRecover()
   rlimit saved{};
   getrlimit(RLIMIT_AS, &saved);
   rlimit limited = saved;
-  limited.rlim_cur = static_cast<rlim_t>(addressSpaceBytes() + (std::size_t(256) << 20));
+  limited.rlim_cur =
+    static_cast<rlim_t>(hvtest::ReadProcessMemory().AddressSpaceBytes + (256LL << 20));
   if (setrlimit(RLIMIT_AS, &limited) != 0)
   {
     std::fprintf(stderr, "setrlimit failed\n");
