@@ -21,10 +21,15 @@
 #include "hv/denoise/DenoiseKernels.h"
 #include "hv/denoise/ImageQuality.h"
 
+#include "ReferenceCache.h"
+
+#include <glm/gtc/type_ptr.hpp>
+
 #include "vtkColorTransferFunction.h"
 #include "vtkFieldData.h"
 #include "vtkFloatArray.h"
 #include "vtkIntArray.h"
+#include "vtkMatrix3x3.h"
 #include "vtkPiecewiseFunction.h"
 #include "vtkPointData.h"
 #include "vtkStringArray.h"
@@ -87,6 +92,7 @@ struct Options
   double ClassificationCoverageWidth = -1.0;   // the denoiser's default
   int EditFrames = 1;
   std::string EditTarget = "threshold";
+  std::string ReferenceCache;
 };
 
 void Usage()
@@ -107,6 +113,12 @@ under the lamp, or with the new transfer function, all along.
   --reference-spp N      samples per pixel of each frame's reference, 64 to 1048576 [1024];
                          the static view's reference and the raw-spp curve use 4x this
   --sequences LIST       any of static,orbit,rotate,switch,edit [all]
+  --reference-cache DIR  keep every converged reference and the raw-spp curve in DIR, and read
+                         them from there when a later run needs the same one (same build of the
+                         path tracer, volume, panorama, view, transfer functions, mapper
+                         settings, size and samples): a run that changes only the denoiser
+                         renders no reference, and a run stopped early keeps what it rendered.
+                         A frame's reference takes 54 MB at 1440x936
   --images DIR           write thumbnail strips (left eye) as PNG into DIR
   --thumbnail-frame N    the frame the strips show, from 0 (past the end: the last) [the
                          static view's frame 15, the frame after a change, the moving
@@ -261,6 +273,109 @@ glm::mat4 FieldMatrix(vtkImageData* image, const char* name)
   return matrix;
 }
 
+// What the reference cache's key takes from an image (the volume, an environment map): its
+// size and placement and the values of every point-data array.
+void HashImage(holovolume::KeyHash& hash, vtkImageData* image)
+{
+  int dims[3];
+  image->GetDimensions(dims);
+  hash.AddValue(dims);
+  hash.Add(image->GetSpacing(), 3 * sizeof(double));
+  hash.Add(image->GetOrigin(), 3 * sizeof(double));
+  hash.Add(image->GetDirectionMatrix()->GetData(), 9 * sizeof(double));
+  vtkPointData* arrays = image->GetPointData();
+  for (int a = 0; a < arrays->GetNumberOfArrays(); ++a)
+  {
+    vtkDataArray* array = arrays->GetArray(a);
+    if (!array)
+    {
+      continue; // not numeric: no renderer reads it
+    }
+    hash.AddString(array->GetName() ? array->GetName() : "");
+    hash.AddValue(array->GetDataType());
+    hash.AddValue(array->GetNumberOfComponents());
+    hash.AddValue(array->GetNumberOfTuples());
+    hash.Add(array->GetVoidPointer(0),
+      static_cast<std::size_t>(array->GetDataSize()) * array->GetDataTypeSize());
+  }
+}
+
+void HashFunction(holovolume::KeyHash& hash, vtkPiecewiseFunction* function)
+{
+  hash.AddValue(function->GetSize());
+  hash.AddValue(function->GetClamping());
+  for (int k = 0; k < function->GetSize(); ++k)
+  {
+    double node[4];
+    function->GetNodeValue(k, node);
+    hash.AddValue(node);
+  }
+}
+
+// The transfer functions and shading the path tracer reads from a volume property (component 0).
+// A function the property lacks is not asked for: VTK would create a default one, which for
+// the gradient opacity also turns it on.
+void HashProperty(holovolume::KeyHash& hash, vtkVolumeProperty* property)
+{
+  hash.AddValue(property->GetColorChannels(0));
+  if (property->GetColorChannels(0) == 3)
+  {
+    vtkColorTransferFunction* color = property->GetRGBTransferFunction(0);
+    hash.AddValue(color->GetSize());
+    hash.AddValue(color->GetClamping());
+    hash.AddValue(color->GetColorSpace());
+    hash.AddValue(color->GetScale());
+    for (int k = 0; k < color->GetSize(); ++k)
+    {
+      double node[6];
+      color->GetNodeValue(k, node);
+      hash.AddValue(node);
+    }
+  }
+  else
+  {
+    HashFunction(hash, property->GetGrayTransferFunction(0));
+  }
+  HashFunction(hash, property->GetScalarOpacity(0));
+  const bool gradientOpacity =
+    property->HasGradientOpacity(0) && !property->GetDisableGradientOpacity(0);
+  hash.AddValue(gradientOpacity);
+  if (gradientOpacity)
+  {
+    HashFunction(hash, property->GetGradientOpacity(0));
+  }
+  const double shading[5] = { property->GetScalarOpacityUnitDistance(0), property->GetAmbient(0),
+    property->GetDiffuse(0), property->GetSpecular(0), property->GetSpecularPower(0) };
+  hash.AddValue(shading);
+  hash.AddValue(property->GetShade(0));
+  hash.AddValue(property->GetInterpolationType());
+}
+
+// The path tracer's settings, for the reference cache's key: all that vtkPathTracedVolumeMapper
+// lets a caller set, the random numbers (seed, frame index) included.
+void HashMapperSettings(holovolume::KeyHash& hash, vtkPathTracedVolumeMapper* mapper)
+{
+  const int integers[9] = { mapper->GetIlluminationModel(), mapper->GetSamplesPerPixel(),
+    mapper->GetMaximumBounces(), mapper->GetRussianRouletteStartBounce(),
+    mapper->GetMacrocellSize(), mapper->GetToneMapping(), mapper->GetBlendMode(),
+    mapper->GetCropping(), mapper->GetCroppingRegionFlags() };
+  const double reals[7] = { mapper->GetSecondaryRayRoulette(), mapper->GetAnisotropy(),
+    mapper->GetDensityScale(), mapper->GetSurfaceScatteringFactor(),
+    mapper->GetEnvironmentIntensity(), mapper->GetStepLengthFactor(), mapper->GetExposure() };
+  const bool flags[6] = { mapper->GetStratifiedSubpixelSamples(),
+    mapper->GetProgressiveAccumulation(), mapper->GetEnvironmentVisible(),
+    mapper->GetEnvironmentImportanceSampling(), mapper->GetUseRendererLights(),
+    mapper->GetRenderPreviousLighting() };
+  hash.AddValue(integers);
+  hash.AddValue(reals);
+  hash.AddValue(flags);
+  hash.Add(mapper->GetEnvironmentRadiance(), 3 * sizeof(double));
+  hash.Add(mapper->GetCroppingRegionPlanes(), 6 * sizeof(double));
+  hash.AddValue(mapper->GetSeed());
+  hash.AddValue(mapper->GetFrameIndex());
+  hash.Add(mapper->GetEnvironmentToWorldMatrix()->GetData(), 16 * sizeof(double));
+}
+
 using PixelPairs = std::vector<std::pair<vtkIdType, vtkIdType>>;
 
 // Which right pixel sees what each left pixel sees: all pairs, with the right pixel that
@@ -296,16 +411,16 @@ struct Reference
 // each with that right pixel. A raw frame's own first scatter points would pair pixels at a
 // random offset (jittered sample rays, a random depth inside translucent tissue), and the
 // figures would then also count how much the image changes over a pixel.
+// `matrices` are the left eye's view and projection, then the right eye's, as the mapper wrote
+// them (CachedReference::Matrices).
 Correspondences CorrespondingPixels(
-  const std::vector<float> meanDepth[2], vtkImageData* leftEye, vtkImageData* rightEye)
+  const std::vector<float> meanDepth[2], const float (&matrices)[4][16], int width, int height)
 {
-  int dims[3];
-  leftEye->GetDimensions(dims);
-  const glm::mat4 leftView = FieldMatrix(leftEye, "ViewMatrix");
-  const glm::mat4 inverseLeftViewProjection =
-    glm::inverse(FieldMatrix(leftEye, "ProjectionMatrix") * leftView);
-  const glm::mat4 view = FieldMatrix(rightEye, "ViewMatrix");
-  const glm::mat4 viewProjection = FieldMatrix(rightEye, "ProjectionMatrix") * view;
+  const int dims[2] = { width, height };
+  const glm::mat4 leftView = glm::make_mat4(matrices[0]);
+  const glm::mat4 inverseLeftViewProjection = glm::inverse(glm::make_mat4(matrices[1]) * leftView);
+  const glm::mat4 view = glm::make_mat4(matrices[2]);
+  const glm::mat4 viewProjection = glm::make_mat4(matrices[3]) * view;
   Correspondences correspondences;
   for (int y = 0; y < dims[1]; ++y)
   {
@@ -861,6 +976,8 @@ int main(int argc, char* argv[])
       options.Sequences = value();
     else if (arg == "--images")
       options.Images = value();
+    else if (arg == "--reference-cache")
+      options.ReferenceCache = value();
     else if (arg == "--thumbnail-frame")
       options.ThumbnailFrame =
         holovolume::IntegerOption(program, "--thumbnail-frame", value(), 0, 100000);
@@ -951,6 +1068,16 @@ int main(int argc, char* argv[])
   {
     mkdir(options.Images.c_str(), 0755);
   }
+  holovolume::ReferenceCache cache;
+  if (!options.ReferenceCache.empty())
+  {
+    std::string error;
+    if (!cache.Open(options.ReferenceCache, error))
+    {
+      std::cerr << "holovolume-denoise-evaluation: --reference-cache: " << error << "\n";
+      return 1;
+    }
+  }
   vtkSmartPointer<vtkImageData> volumeData = holovolume::ReadVolume(options.Volume);
   double range[2];
   volumeData->GetScalarRange(range);
@@ -1016,21 +1143,92 @@ int main(int argc, char* argv[])
   // showProgress: a dot on standard error for every sixteenth of the passes, for the long
   // phases that print nothing else meanwhile (the static reference takes 20 minutes at
   // 1440x936 on the 2-core machine).
+  // A cached reference (--reference-cache) stands in for rendering it only where everything
+  // that shapes it is the same: the code (ReferenceCache::HashRendererCode), the volume, the
+  // environment map, the view, the transfer functions, the size, the samples and the random
+  // numbers (the mapper's seed and frame index), and the options that choose them.
+  holovolume::KeyHash sceneHash;
+  if (cache.IsOpen())
+  {
+    std::string error;
+    if (!holovolume::ReferenceCache::HashRendererCode(sceneHash, error))
+    {
+      std::cerr << "holovolume-denoise-evaluation: --reference-cache: " << error << "\n";
+      return 1;
+    }
+    // How renderReference makes a reference from the mapper's passes: change the text with it.
+    sceneHash.AddString("64-spp passes accumulated; mean first scatter depth where most passes "
+                        "scattered; linear RGBA radiance");
+    HashImage(sceneHash, volumeData);
+    sceneHash.AddValue(options.Width);
+    sceneHash.AddValue(options.Height);
+  }
+  // The reference's key; renderReference advances the reference mapper's frame index past the
+  // passes whether it renders them or reads them, so that the references after it take the same
+  // random numbers either way.
+  auto referenceKey = [&](vtkImageData* environment, vtkMatrix4x4* views[2],
+                        vtkMatrix4x4* projections[2], int samples)
+  {
+    holovolume::KeyHash hash = sceneHash;
+    HashImage(hash, environment);
+    for (int e = 0; e < 2; ++e)
+    {
+      hash.Add(views[e]->GetData(), 16 * sizeof(double));
+      hash.Add(projections[e]->GetData(), 16 * sizeof(double));
+    }
+    HashProperty(hash, referenceVolume->GetProperty());
+    hash.Add(referenceVolume->GetMatrix()->GetData(), 16 * sizeof(double));
+    HashMapperSettings(hash, reference);
+    hash.AddValue(samples);
+    return hash.Value();
+  };
+  // The figures' view of a reference: display values, corresponding pixels and regions.
+  auto toReference = [&](const holovolume::CachedReference& converged, Reference& out)
+  {
+    for (int e = 0; e < 2; ++e)
+    {
+      out.eye[e] = hv::denoise::displayImage(
+        converged.Radiance[e].data(), static_cast<vtkIdType>(converged.Radiance[e].size() / 4));
+    }
+    out.correspondingPixels = CorrespondingPixels(
+      converged.MeanDepth, converged.Matrices, converged.Width, converged.Height);
+    for (int e = 0; e < 2; ++e)
+    {
+      out.region[e] = PixelRegions(out.eye[e], options.Width, options.Height);
+    }
+    MarkSilhouettePairs(out.correspondingPixels, out.region);
+  };
+  // showProgress: a dot on standard error for every sixteenth of the passes, for the long
+  // phases that print nothing else meanwhile (the static reference takes 20 minutes at
+  // 1440x936 on the 2-core machine). Returns the reference's cache key (0 without a cache).
   auto renderReference = [&](vtkImageData* environment, vtkMatrix4x4* views[2],
                            vtkMatrix4x4* projections[2], int samples, Reference& out,
-                           bool showProgress = false)
+                           bool showProgress = false) -> std::uint64_t
   {
+    const int passes = samples / 64;
+    holovolume::CachedReference converged;
+    const std::uint64_t key =
+      cache.IsOpen() ? referenceKey(environment, views, projections, samples) : 0;
+    if (cache.IsOpen() && cache.LoadReference(key, options.Width, options.Height, converged))
+    {
+      reference->SetFrameIndex(reference->GetFrameIndex() + static_cast<vtkTypeUInt32>(passes));
+      if (showProgress)
+      {
+        std::cerr << "from the cache";
+      }
+      toReference(converged, out);
+      return key;
+    }
     reference->SetEnvironmentMapData(environment);
     reference->ResetAccumulation();
     const std::size_t pixels = static_cast<std::size_t>(options.Width) * options.Height;
-    std::vector<float> depthSum[2], meanDepth[2];
+    std::vector<float> depthSum[2];
     std::vector<int> depthCount[2];
     for (int e = 0; e < 2; ++e)
     {
       depthSum[e].assign(pixels, 0.0f);
       depthCount[e].assign(pixels, 0);
     }
-    const int passes = samples / 64;
     for (int k = 0; k < passes; ++k)
     {
       reference->RenderStereoFrame(referenceVolume, views[0], projections[0], views[1],
@@ -1054,26 +1252,34 @@ int main(int argc, char* argv[])
         }
       }
     }
+    converged.Width = options.Width;
+    converged.Height = options.Height;
     for (int e = 0; e < 2; ++e)
     {
-      out.eye[e] = Display(reference->GetEyeOutput(e));
-      meanDepth[e].assign(pixels, 0.0f);
+      vtkImageData* eyeImage = reference->GetEyeOutput(e);
+      auto* radiance = vtkFloatArray::SafeDownCast(eyeImage->GetPointData()->GetArray("Radiance"));
+      converged.Radiance[e].assign(
+        radiance->GetPointer(0), radiance->GetPointer(0) + 4 * radiance->GetNumberOfTuples());
+      const glm::mat4 view = FieldMatrix(eyeImage, "ViewMatrix");
+      const glm::mat4 projection = FieldMatrix(eyeImage, "ProjectionMatrix");
+      std::copy_n(glm::value_ptr(view), 16, converged.Matrices[2 * e]);
+      std::copy_n(glm::value_ptr(projection), 16, converged.Matrices[2 * e + 1]);
+      converged.MeanDepth[e].assign(pixels, 0.0f);
       for (std::size_t i = 0; i < pixels; ++i)
       {
         // A pixel counts as covered when most frames scattered there.
-        if (2 * depthCount[e][i] > samples / 64)
+        if (2 * depthCount[e][i] > passes)
         {
-          meanDepth[e][i] = depthSum[e][i] / static_cast<float>(depthCount[e][i]);
+          converged.MeanDepth[e][i] = depthSum[e][i] / static_cast<float>(depthCount[e][i]);
         }
       }
     }
-    out.correspondingPixels =
-      CorrespondingPixels(meanDepth, reference->GetEyeOutput(0), reference->GetEyeOutput(1));
-    for (int e = 0; e < 2; ++e)
+    if (cache.IsOpen())
     {
-      out.region[e] = PixelRegions(out.eye[e], options.Width, options.Height);
+      cache.StoreReference(key, converged);
     }
-    MarkSilhouettePairs(out.correspondingPixels, out.region);
+    toReference(converged, out);
+    return key;
   };
 
   std::printf("# holovolume-denoise-evaluation\n\n%s under %s, %dx%d per eye, %d stereo frames "
@@ -1192,19 +1398,31 @@ int main(int argc, char* argv[])
     eyeMatrices(35.0, views, projections);
     const auto phaseStart = std::chrono::steady_clock::now();
     std::cerr << "static reference (" << 4 * options.ReferenceSamples << " spp) ";
-    renderReference(
+    const std::uint64_t staticKey = renderReference(
       baseEnvironment, views, projections, 4 * options.ReferenceSamples, staticReference, true);
+    constexpr vtkTypeUInt32 curveSeed = 104729;
+    // The curve's renders share the static reference's scene and view, which its key covers.
+    holovolume::KeyHash curveHash;
+    curveHash.AddValue(staticKey);
+    curveHash.AddString("raw-spp curve");
+    curveHash.AddValue(curveSeed);
+    curveHash.AddValue(options.ReferenceSamples);
+    const bool curveCached = cache.IsOpen() && cache.LoadCurve(curveHash.Value(), rawCurve);
+    if (curveCached)
+    {
+      std::cerr << ", the raw curve from the cache";
+    }
     vtkNew<vtkPathTracedVolumeMapper> curve;
     curve->SetInputData(volumeData);
     curve->SetEnvironmentToWorldMatrix(environmentToWorld);
     curve->SetEnvironmentMapData(baseEnvironment);
-    curve->SetSeed(104729);
+    curve->SetSeed(curveSeed);
     curve->SetStratifiedSubpixelSamples(options.StratifiedSubpixelSamples != 0);
     vtkNew<vtkVolume> curveVolume;
     curveVolume->SetMapper(curve);
     curveVolume->SetProperty(property);
     int next = 2;
-    for (int frame = 1; 2 * frame <= options.ReferenceSamples; ++frame)
+    for (int frame = 1; !curveCached && 2 * frame <= options.ReferenceSamples; ++frame)
     {
       curve->RenderStereoFrame(curveVolume, views[0], projections[0], views[1], projections[1],
         options.Width, options.Height);
@@ -1218,7 +1436,12 @@ int main(int argc, char* argv[])
         std::cerr << "." << std::flush;
       }
     }
-    std::cerr << " and raw curve: " << MinutesSince(phaseStart) << " min\n";
+    if (cache.IsOpen() && !curveCached)
+    {
+      cache.StoreCurve(curveHash.Value(), rawCurve);
+    }
+    std::cerr << (curveCached ? "" : " and raw curve") << ": " << MinutesSince(phaseStart)
+              << " min\n";
     std::printf("\n## Raw PSNR against samples per pixel (static view)\n\n| spp |");
     for (auto& point : rawCurve)
     {
@@ -2007,6 +2230,12 @@ int main(int argc, char* argv[])
             splitReferences[splitFrames.back()], options.Width, options.Height));
     }
     std::fflush(stdout);
+  }
+  if (cache.IsOpen())
+  {
+    // On standard error: the tables are the same whether the references were read or rendered.
+    std::cerr << "reference cache " << cache.GetDirectory() << ": " << cache.GetHits() << " read, "
+              << cache.GetStores() << " rendered and kept\n";
   }
   return 0;
 }
