@@ -171,13 +171,18 @@ std::string ReferenceCache::PathOf(std::uint64_t key, const char* kind) const
 bool ReferenceCache::Load(std::uint64_t key, const char* kind, std::vector<char>& payload)
 {
   const std::string path = this->PathOf(key, kind);
-  std::ifstream file(path, std::ios::binary);
+  std::ifstream file(path, std::ios::binary | std::ios::ate);
   if (!file)
   {
     return false; // not rendered before
   }
-  std::vector<char> contents(
-    (std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  std::vector<char> contents(static_cast<std::size_t>(std::max<std::streamoff>(file.tellg(), 0)));
+  file.seekg(0);
+  file.read(contents.data(), static_cast<std::streamsize>(contents.size()));
+  if (!file)
+  {
+    contents.clear(); // unreadable: reported as damaged below
+  }
   const std::size_t header = sizeof(Magic) + KindBytes + 2 * sizeof(std::uint64_t);
   char storedKind[KindBytes] = {};
   std::strncpy(storedKind, kind, KindBytes - 1);
