@@ -119,7 +119,9 @@ under the lamp, or with the new transfer function, all along.
                          settings, size and samples): a run that changes only the denoiser
                          renders no reference, and a run stopped early keeps what it rendered.
                          A frame's reference takes 54 MB at 1440x936
-  --images DIR           write thumbnail strips (left eye) as PNG into DIR
+  --images DIR           write thumbnail strips (left eye) as PNG into DIR, and for each
+                         sequence a map of the eyes' noise discrepancy per pixel, D1 beside the
+                         full denoiser (denoise-SEQUENCE-discrepancy.png)
   --thumbnail-frame N    the frame the strips show, from 0 (past the end: the last) [the
                          static view's frame 15, the frame after a change, the moving
                          sequences' last frame]
@@ -789,6 +791,94 @@ void WriteStrip(
   cv::hconcat(panels, strip);
   cv::resize(strip, scaled, cv::Size(), 2.0, 2.0, cv::INTER_NEAREST);
   cv::imwrite(path, scaled);
+}
+
+// Where the eyes' noise still differs: for D1 and for the full denoiser, each left pixel's RMS
+// noise discrepancy over the frames in which it was a centred pair (the per-pixel form of the
+// tables' figure, with the same sqrt(1/2)), as a heat map on one logarithmic scale from a
+// hundredth of the larger map's 99.5th percentile (black) up to it (white; the colour map is
+// OpenCV's inferno), beside the reference for orientation. Pixels never paired stay dark grey.
+// A colour bar below gives the scale in display values.
+void WriteDiscrepancyMap(const std::string& path, const std::vector<double> (&squares)[2],
+  const std::vector<int>& frames, const std::vector<float>& reference, int width, int height)
+{
+  std::vector<double> paired;
+  for (const std::vector<double>& map : squares)
+  {
+    for (std::size_t i = 0; i < map.size(); ++i)
+    {
+      if (frames[i] > 0)
+      {
+        paired.push_back(std::sqrt(0.5 * map[i] / frames[i]));
+      }
+    }
+  }
+  if (paired.empty())
+  {
+    return;
+  }
+  const std::size_t rank = paired.size() * 995 / 1000;
+  std::nth_element(paired.begin(), paired.begin() + rank, paired.end());
+  const double top = std::max(paired[std::min(rank, paired.size() - 1)], 1e-9);
+  const double bottom = top / 100.0;
+  auto level = [&](double value)
+  {
+    const double t = std::log(std::max(value, bottom) / bottom) / std::log(top / bottom);
+    return static_cast<unsigned char>(std::clamp(t, 0.0, 1.0) * 255.0 + 0.5);
+  };
+  std::vector<cv::Mat> panels;
+  for (const std::vector<double>& map : squares)
+  {
+    cv::Mat levels(height, width, CV_8U), heat;
+    cv::Mat unpaired(height, width, CV_8U, cv::Scalar(0));
+    for (int y = 0; y < height; ++y)
+    {
+      for (int x = 0; x < width; ++x)
+      {
+        const std::size_t i = static_cast<std::size_t>(height - 1 - y) * width + x;
+        levels.at<unsigned char>(y, x) =
+          frames[i] > 0 ? level(std::sqrt(0.5 * map[i] / frames[i])) : 0;
+        unpaired.at<unsigned char>(y, x) = frames[i] > 0 ? 0 : 255;
+      }
+    }
+    cv::applyColorMap(levels, heat, cv::COLORMAP_INFERNO);
+    heat.setTo(cv::Scalar(48, 48, 48), unpaired);
+    panels.push_back(heat);
+  }
+  panels.push_back(DisplayToBGR(reference, width, height));
+  const cv::Mat separator(height, 4, CV_8UC3, cv::Scalar(255, 255, 255));
+  cv::Mat strip;
+  cv::hconcat(std::vector<cv::Mat>{ panels[0], separator, panels[1], separator, panels[2] }, strip);
+  // The colour bar under the two maps, with its ends and a tenth of the top labelled.
+  const int barHeight = std::max(24, height / 12);
+  cv::Mat ramp(1, 256, CV_8U), bar;
+  for (int k = 0; k < 256; ++k)
+  {
+    ramp.at<unsigned char>(0, k) = static_cast<unsigned char>(k);
+  }
+  cv::applyColorMap(ramp, bar, cv::COLORMAP_INFERNO);
+  cv::resize(bar, bar, cv::Size(2 * width + 4, barHeight / 2), 0, 0, cv::INTER_LINEAR);
+  cv::Mat legend(barHeight + barHeight / 2, strip.cols, CV_8UC3, cv::Scalar(255, 255, 255));
+  bar.copyTo(legend(cv::Rect(0, 0, bar.cols, bar.rows)));
+  const double fontScale = std::max(0.35, barHeight / 60.0);
+  for (const double value : { bottom, top / 10.0, top })
+  {
+    char text[32];
+    std::snprintf(text, sizeof(text), "%.3g", value);
+    const int x = static_cast<int>(level(value) / 255.0 * (bar.cols - 1));
+    int baseline = 0;
+    const cv::Size size = cv::getTextSize(text, cv::FONT_HERSHEY_SIMPLEX, fontScale, 1, &baseline);
+    cv::putText(legend, text,
+      cv::Point(std::clamp(x - size.width / 2, 0, bar.cols - size.width), legend.rows - baseline),
+      cv::FONT_HERSHEY_SIMPLEX, fontScale, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  }
+  cv::Mat figure;
+  cv::vconcat(std::vector<cv::Mat>{ strip, legend }, figure);
+  if (width < 400)
+  {
+    cv::resize(figure, figure, cv::Size(), 2.0, 2.0, cv::INTER_NEAREST);
+  }
+  cv::imwrite(path, figure);
 }
 
 // A bright lamp (about 300x the panorama's mean radiance, 8 degrees wide) high in the sky.
@@ -1511,6 +1601,12 @@ int main(int argc, char* argv[])
     // The references of the edit's steps before its last, by frame: the same in every run.
     std::map<int, Reference> editStepReferences;
     std::vector<std::vector<float>> thumbnails;
+    // The per-pixel noise discrepancy of D1 and the full denoiser (WriteDiscrepancyMap), run 1.
+    const std::size_t imagePixels = static_cast<std::size_t>(options.Width) * options.Height;
+    std::vector<double> discrepancySquares[2] = { std::vector<double>(imagePixels, 0.0),
+      std::vector<double>(imagePixels, 0.0) };
+    std::vector<int> discrepancyFrames(imagePixels, 0);
+    std::vector<float> discrepancyReference;
     // Left eye at the thumbnail frame: coverage filtered like the colour, the full denoiser,
     // the reference, for the close-up of the silhouette.
     std::vector<float> silhouette[3];
@@ -1860,6 +1956,26 @@ int main(int argc, char* argv[])
             const double allSquares = centred.squared[0] + centred.squared[1];
             a.silhouetteSquareShare += allSquares > 0.0 ? centred.squared[1] / allSquares : 0.0;
           }
+          if (repetition == 0 && (m == D1Method || m == FullMethod))
+          {
+            std::vector<double>& map = discrepancySquares[m == FullMethod ? 1 : 0];
+            for (const auto& [i, q] : centredPairs)
+            {
+              double squared = 0.0;
+              for (int c = 0; c < 3; ++c)
+              {
+                const double d = (display[0][3 * i + c] - twinDisplay[0][3 * i + c]) -
+                  (display[1][3 * q + c] - twinDisplay[1][3 * q + c]);
+                squared += d * d;
+              }
+              map[static_cast<std::size_t>(i)] += squared / 3.0;
+              discrepancyFrames[static_cast<std::size_t>(i)] += m == D1Method ? 1 : 0;
+            }
+            if (frame == thumbnailFrame)
+            {
+              discrepancyReference = references[0];
+            }
+          }
           ++a.frames;
           a.previous[0] = display[0];
           a.previous[1] = display[1];
@@ -1949,6 +2065,8 @@ int main(int argc, char* argv[])
         WriteSilhouetteCloseUp(
           options.Images + "/denoise-silhouette.png", silhouette, options.Width, options.Height);
       }
+      WriteDiscrepancyMap(options.Images + "/denoise-" + sequence + "-discrepancy.png",
+        discrepancySquares, discrepancyFrames, discrepancyReference, options.Width, options.Height);
     }
 
     const double referenceFlickerMean =

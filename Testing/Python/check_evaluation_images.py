@@ -1,0 +1,79 @@
+"""holovolume-denoise-evaluation --images: the thumbnail strip and the noise discrepancy map.
+
+    check_evaluation_images.py EVALUATION WORKDIR [OPTION...]
+
+Runs a short still view at 40x26 with the options given (e.g. --volume, --environment) and
+checks the strip (the five methods and the reference side by side) and the map: D1's and the full denoiser's
+per-pixel noise discrepancy on one colour scale, beside the reference. The two maps must mark
+the same pixels as paired, and the full denoiser's must be darker there on the mean: D2 averages
+the eyes' noise, which the inferno colour map shows as lower luminance.
+"""
+
+import pathlib
+import shutil
+import subprocess
+import sys
+
+from vtkmodules.util.numpy_support import vtk_to_numpy
+from vtkmodules.vtkIOImage import vtkPNGReader
+
+evaluation, workdir = sys.argv[1], pathlib.Path(sys.argv[2])
+shutil.rmtree(workdir, ignore_errors=True)
+workdir.mkdir(parents=True)
+width, height = 40, 26
+result = subprocess.run([evaluation, "--size", f"{width}x{height}", "--frames", "6",
+                         "--reference-spp", "64", "--sequences", "static",
+                         "--images", str(workdir), *sys.argv[3:]],
+                        capture_output=True, text=True)
+if result.returncode != 0:
+    sys.exit(f"evaluation failed ({result.returncode}):\n{result.stderr}")
+failures = []
+
+
+def expect(what, condition):
+    print(("ok    " if condition else "FAIL  ") + what)
+    if not condition:
+        failures.append(what)
+
+
+def read_png(path):
+    """The image as rows from the top, RGB; VTK's reader puts the bottom row first."""
+    reader = vtkPNGReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    image = reader.GetOutput()
+    columns, rows, _ = image.GetDimensions()
+    pixels = vtk_to_numpy(image.GetPointData().GetScalars())
+    return pixels.reshape(rows, columns, -1)[::-1, :, :3].astype(float)
+
+
+strip_path = workdir / "denoise-static.png"
+map_path = workdir / "denoise-static-discrepancy.png"
+expect(f"{strip_path.name} and {map_path.name} written", strip_path.exists() and map_path.exists())
+if failures:
+    sys.exit(1)
+
+strip = read_png(strip_path)
+# Six panels (raw, spatial only, temporal only, D1, D1 + D2, the reference), magnified twice.
+expect(f"the strip is 6 panels of {width}x{height}, twice magnified: {strip.shape[:2]}",
+       strip.shape[:2] == (2 * height, 2 * 6 * width))
+
+figure = read_png(map_path)
+# D1's map, a 4-pixel separator, the full denoiser's, a separator, the reference; twice magnified.
+expect(f"the map is three {width}x{height} panels wide, twice magnified: {figure.shape[1]}",
+       figure.shape[1] == 2 * (3 * width + 8))
+maps = [figure[:2 * height, 2 * offset:2 * (offset + width)] for offset in (0, width + 4)]
+reference = figure[:2 * height, 2 * (2 * width + 8):]
+unpaired_grey = 48.0
+paired = [(panel != unpaired_grey).any(axis=2) for panel in maps]
+expect(f"some pixels are paired: {int(paired[0].sum())} of {paired[0].size}",
+       paired[0].sum() > 0)
+expect("both maps mark the same pixels as paired", (paired[0] == paired[1]).all())
+luminance = [(panel @ [0.2126, 0.7152, 0.0722])[paired[0]].mean() for panel in maps]
+expect(f"the full denoiser's map is darker than D1's: {luminance[1]:.1f} < {luminance[0]:.1f}",
+       luminance[1] < luminance[0])
+expect("the reference shows the volume", reference.max() > 0)
+
+if failures:
+    sys.exit(f"{len(failures)} check(s) failed")
+print("evaluation images: all checks passed")
