@@ -1234,9 +1234,9 @@ int main(int argc, char* argv[])
   // phases that print nothing else meanwhile (the static reference takes 20 minutes at
   // 1440x936 on the 2-core machine).
   // A cached reference (--reference-cache) stands in for rendering it only where everything
-  // that shapes it is the same: the code (ReferenceCache::HashRendererCode), the volume, the
-  // environment map, the view, the transfer functions, the size, the samples and the random
-  // numbers (the mapper's seed and frame index), and the options that choose them.
+  // that shapes it is the same: the path tracer's code (ReferenceCache::HashRendererCode), the
+  // volume, the environment map, the eyes' matrices, the transfer functions, the mapper's
+  // settings with its random numbers (seed and frame index), the size and the samples.
   holovolume::KeyHash sceneHash;
   if (cache.IsOpen())
   {
