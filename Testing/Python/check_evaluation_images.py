@@ -17,6 +17,8 @@ import sys
 from vtkmodules.util.numpy_support import vtk_to_numpy
 from vtkmodules.vtkIOImage import vtkPNGReader
 
+from checklist import Checklist
+
 evaluation, workdir = sys.argv[1], pathlib.Path(sys.argv[2])
 shutil.rmtree(workdir, ignore_errors=True)
 workdir.mkdir(parents=True)
@@ -27,13 +29,8 @@ result = subprocess.run([evaluation, "--size", f"{width}x{height}", "--frames", 
                         capture_output=True, text=True)
 if result.returncode != 0:
     sys.exit(f"evaluation failed ({result.returncode}):\n{result.stderr}")
-failures = []
-
-
-def expect(what, condition):
-    print(("ok    " if condition else "FAIL  ") + what)
-    if not condition:
-        failures.append(what)
+checks = Checklist()
+expect = checks.expect
 
 
 def read_png(path):
@@ -50,8 +47,8 @@ def read_png(path):
 strip_path = workdir / "denoise-static.png"
 map_path = workdir / "denoise-static-discrepancy.png"
 expect(f"{strip_path.name} and {map_path.name} written", strip_path.exists() and map_path.exists())
-if failures:
-    sys.exit(1)
+if checks.failures:
+    sys.exit("the pictures are missing")
 
 strip = read_png(strip_path)
 # Six panels (raw, spatial only, temporal only, D1, D1 + D2, the reference), magnified twice.
@@ -74,6 +71,4 @@ expect(f"the full denoiser's map is darker than D1's: {luminance[1]:.1f} < {lumi
        luminance[1] < luminance[0])
 expect("the reference shows the volume", reference.max() > 0)
 
-if failures:
-    sys.exit(f"{len(failures)} check(s) failed")
-print("evaluation images: all checks passed")
+checks.finish("evaluation images: all checks passed")

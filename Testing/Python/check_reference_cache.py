@@ -13,6 +13,8 @@ import shutil
 import subprocess
 import sys
 
+from checklist import Checklist
+
 evaluation, workdir = sys.argv[1], pathlib.Path(sys.argv[2])
 shutil.rmtree(workdir, ignore_errors=True)
 workdir.mkdir(parents=True)
@@ -22,7 +24,8 @@ cache = workdir / "cache"
 arguments = ["--size", "40x26", "--frames", "4", "--reference-spp", "64",
              "--sequences", "static,orbit,switch", "--switch-runs", "1", *sys.argv[3:]]
 entries = 1 + 1 + 4 + 2
-failures = []
+checks = Checklist()
+expect = checks.expect
 
 
 def run(name, *extra):
@@ -34,12 +37,6 @@ def run(name, *extra):
     counts = re.search(r"reference cache .*: (\d+) read, (\d+) rendered and kept", result.stderr)
     return result.stdout, result.stderr, (
         (int(counts.group(1)), int(counts.group(2))) if counts else None)
-
-
-def expect(what, condition):
-    print(("ok    " if condition else "FAIL  ") + what)
-    if not condition:
-        failures.append(what)
 
 
 plain, _, counts = run("plain")
@@ -74,6 +71,4 @@ _, _, counts = run("random-subpixels", "--subpixel-samples", "random",
                    "--reference-cache", str(cache))
 expect(f"random subpixel samples render every reference: {counts}", counts == (0, entries))
 
-if failures:
-    sys.exit(f"{len(failures)} check(s) failed")
-print("reference cache: all checks passed")
+checks.finish("reference cache: all checks passed")
