@@ -1,12 +1,14 @@
 """holovolume-denoise-evaluation --reference-cache: the tables are the same, byte for byte, whether
 the references are rendered or read from the cache; a run that tunes only the denoiser reads every
-reference; a damaged entry is rendered again; an option that changes the references reads none.
+reference; a damaged entry is rendered again; an option that changes the references reads none;
+the partial files of runs killed while writing are removed once their writers are gone.
 
     check_reference_cache.py EVALUATION WORKDIR [OPTION...]
 
 The options (e.g. --volume and --environment) go to every run.
 """
 
+import os
 import pathlib
 import re
 import shutil
@@ -47,9 +49,23 @@ expect(f"first run with the cache renders and keeps all {entries} entries: {coun
        counts == (0, entries))
 expect("its tables are those of the run without the cache", cold == plain)
 
-warm, _, counts = run("warm", "--reference-cache", str(cache))
+# The partial files of a run killed while it wrote an entry: one whose writer has exited, one
+# whose writer (this script) still runs.
+finished = subprocess.Popen(["true"])
+finished.wait()
+some_entry = sorted(cache.glob("*.reference"))[0]
+stale = cache / f"{some_entry.name}.part.{finished.pid}"
+live = cache / f"{some_entry.name}.part.{os.getpid()}"
+stale.write_bytes(b"cut short")
+live.write_bytes(b"being written")
+
+warm, stderr, counts = run("warm", "--reference-cache", str(cache))
 expect(f"second run reads all {entries}: {counts}", counts == (entries, 0))
 expect("its tables are the same byte for byte", warm == plain)
+expect("it removes the partial file of a run that has ended", not stale.exists())
+expect("and says so", "removed 1 partial entry left by runs stopped while writing" in stderr)
+expect("it keeps the partial file of a process that still runs", live.exists())
+live.unlink()
 
 # A file cut short (a killed run, a full disk) is found by its checksum and rendered again.
 damaged = sorted(cache.glob("*.reference"))[0]

@@ -11,6 +11,8 @@
 #include <system_error>
 
 #if defined(__linux__)
+#include <cerrno>
+#include <csignal>
 #include <link.h>
 #include <unistd.h>
 #endif
@@ -158,7 +160,47 @@ bool ReferenceCache::Open(const std::string& directory, std::string& error)
     return false;
   }
   this->Directory = directory;
+  this->RemovePartialEntriesOfStoppedRuns();
   return true;
+}
+
+void ReferenceCache::RemovePartialEntriesOfStoppedRuns()
+{
+#if defined(__linux__)
+  // Store writes KEY.KIND.part.PID and renames it; a run killed in between leaves the file
+  // behind. It is removed once its writer is gone (kill(pid, 0) fails with ESRCH). A file of a
+  // live process stays, whichever process that is: a reused PID only delays the clean-up. (A
+  // cache shared between machines over a network file system would need the host in the name.)
+  std::error_code failure;
+  int removed = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(this->Directory, failure))
+  {
+    const std::string name = entry.path().filename().string();
+    const std::size_t marker = name.rfind(".part.");
+    if (marker == std::string::npos || name.size() == marker + 6)
+    {
+      continue;
+    }
+    const std::string digits = name.substr(marker + 6);
+    if (digits.size() > 9 ||
+      !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
+    {
+      continue;
+    }
+    const pid_t writer = static_cast<pid_t>(std::stol(digits));
+    if (writer > 0 && kill(writer, 0) != 0 && errno == ESRCH)
+    {
+      std::error_code removeFailure;
+      removed += std::filesystem::remove(entry.path(), removeFailure) ? 1 : 0;
+    }
+  }
+  if (removed > 0)
+  {
+    std::cerr << "holovolume-denoise-evaluation: --reference-cache: removed " << removed
+              << " partial entr" << (removed == 1 ? "y" : "ies")
+              << " left by runs stopped while writing\n";
+  }
+#endif
 }
 
 std::string ReferenceCache::PathOf(std::uint64_t key, const char* kind) const

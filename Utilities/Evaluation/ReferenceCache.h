@@ -56,7 +56,8 @@ struct CachedReference
 class ReferenceCache
 {
 public:
-  // Creates the directory where needed. False, with `error` saying why, where it cannot be used.
+  // Creates the directory where needed, and removes the partial files that runs killed while
+  // writing an entry left there. False, with `error` saying why, where it cannot be used.
   bool Open(const std::string& directory, std::string& error);
   bool IsOpen() const { return !this->Directory.empty(); }
   const std::string& GetDirectory() const { return this->Directory; }
@@ -81,6 +82,7 @@ private:
   bool Load(std::uint64_t key, const char* kind, std::vector<char>& payload);
   void Store(std::uint64_t key, const char* kind, const std::vector<char>& payload);
   std::string PathOf(std::uint64_t key, const char* kind) const;
+  void RemovePartialEntriesOfStoppedRuns();
 
   std::string Directory;
   int Hits = 0;
