@@ -1639,6 +1639,27 @@ int main(int argc, char* argv[])
       std::begin(sequenceNames);
     reference->SetSeed(static_cast<vtkTypeUInt32>(7919 + sequenceIndex));
     reference->SetFrameIndex(0);
+    // A dot a frame; where frames take long (a 1024-spp reference is about 5 minutes at
+    // 1440x936 on the 2-core machine), every fifth frame also says how far the sequence is and
+    // how long the rest should take at the mean pace so far.
+    const int sequenceFrames = runs * options.Frames;
+    int framesDone = 0;
+    auto frameDone = [&]()
+    {
+      ++framesDone;
+      std::cerr << ".";
+      const double seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - sequenceStart).count();
+      if (framesDone % 5 == 0 && framesDone < sequenceFrames && seconds > 120.0)
+      {
+        const double minutesLeft = seconds / framesDone * (sequenceFrames - framesDone) / 60.0;
+        char text[96];
+        std::snprintf(text, sizeof(text), " [%d/%d frames, %.0f min, about %.0f min left] ",
+          framesDone, sequenceFrames, seconds / 60.0, minutesLeft);
+        std::cerr << text;
+      }
+      std::cerr << std::flush;
+    };
     for (int repetition = 0; repetition < runs; ++repetition)
     {
       // Each sequence and run starts at frame 0 with seeds of its own, so that a sequence run
@@ -1997,7 +2018,7 @@ int main(int argc, char* argv[])
         }
         if (repetition > 0)
         {
-          std::cerr << ".";
+          frameDone();
           continue;
         }
         if (!referenceFlicker.previous[0].empty())
@@ -2028,7 +2049,7 @@ int main(int argc, char* argv[])
           thumbnails.push_back(references[0]);
           silhouette[2] = references[0];
         }
-        std::cerr << ".";
+        frameDone();
       }
       std::cerr << (repetition + 1 < runs ? "\n        run " + std::to_string(repetition + 2) : "");
     }
