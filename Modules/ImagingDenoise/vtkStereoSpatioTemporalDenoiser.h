@@ -82,7 +82,10 @@ public:
   ///@{
   /**
    * T in [0, 1), the illumination difference of this frame, when port 2 is not connected.
-   * Values outside are clamped; NaN drops the history like T -> 1. Default 0.
+   * Values outside are clamped; NaN drops the history like T -> 1. Default 0. Like any
+   * setting it holds for every later frame until set again: after a change of light, set it
+   * back to 0 for the next frame, or the history stays short (a connected
+   * vtkEnvironmentSyncedLight gives each frame its own T).
    */
   vtkSetMacro(IlluminationDifference, double);
   vtkGetMacro(IlluminationDifference, double);
