@@ -58,6 +58,9 @@ stale = cache / f"{some_entry.name}.part.{finished.pid}"
 live = cache / f"{some_entry.name}.part.{os.getpid()}"
 stale.write_bytes(b"cut short")
 live.write_bytes(b"being written")
+# A file of another program that only looks like one (the directory may be shared).
+foreign = cache / f"download.part.{finished.pid}"
+foreign.write_bytes(b"not the cache's")
 
 warm, stderr, counts = run("warm", "--reference-cache", str(cache))
 expect(f"second run reads all {entries}: {counts}", counts == (entries, 0))
@@ -65,7 +68,9 @@ expect("its tables are the same byte for byte", warm == plain)
 expect("it removes the partial file of a run that has ended", not stale.exists())
 expect("and says so", "removed 1 partial entry left by runs stopped while writing" in stderr)
 expect("it keeps the partial file of a process that still runs", live.exists())
+expect("and a file of another name format", foreign.exists())
 live.unlink()
+foreign.unlink()
 
 # A file cut short (a killed run, a full disk) is found by its checksum and rendered again.
 damaged = sorted(cache.glob("*.reference"))[0]

@@ -3,6 +3,7 @@
 #include "ReferenceCache.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -175,9 +176,15 @@ void ReferenceCache::RemovePartialEntriesOfStoppedRuns()
   int removed = 0;
   for (const auto& entry : std::filesystem::directory_iterator(this->Directory, failure))
   {
+    // Only names Store writes (16 hex digits, a kind, .part. and the PID): the directory may be
+    // one the user shares with other files.
     const std::string name = entry.path().filename().string();
     const std::size_t marker = name.rfind(".part.");
-    if (marker == std::string::npos || name.size() == marker + 6)
+    const bool hexKey = name.size() > 17 && name[16] == '.' &&
+      std::all_of(name.begin(), name.begin() + 16, [](char c) { return std::isxdigit(c) != 0; });
+    const std::string kind =
+      hexKey && marker != std::string::npos && marker > 17 ? name.substr(17, marker - 17) : "";
+    if ((kind != "reference" && kind != "curve") || name.size() == marker + 6)
     {
       continue;
     }
