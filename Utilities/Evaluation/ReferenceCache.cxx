@@ -3,6 +3,7 @@
 #include "ReferenceCache.h"
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cstdio>
 #include <cstring>
@@ -27,6 +28,17 @@ namespace
 // which catches a file cut short by a full disk or a killed run.
 constexpr char Magic[8] = { 'H', 'V', 'R', 'E', 'F', 'C', '0', '1' };
 constexpr std::size_t KindBytes = 16;
+// The kinds of entry, each a file name's extension.
+constexpr const char* ReferenceKind = "reference";
+constexpr const char* CurveKind = "curve";
+
+// The kind as the file stores it: its name padded with zeros to KindBytes.
+std::array<char, KindBytes> KindField(const char* kind)
+{
+  std::array<char, KindBytes> field = {};
+  std::strncpy(field.data(), kind, KindBytes - 1);
+  return field;
+}
 
 void AppendBytes(std::vector<char>& out, const void* data, std::size_t bytes)
 {
@@ -184,7 +196,7 @@ void ReferenceCache::RemovePartialEntriesOfStoppedRuns()
       std::all_of(name.begin(), name.begin() + 16, [](char c) { return std::isxdigit(c) != 0; });
     const std::string kind =
       hexKey && marker != std::string::npos && marker > 17 ? name.substr(17, marker - 17) : "";
-    if ((kind != "reference" && kind != "curve") || name.size() == marker + 6)
+    if ((kind != ReferenceKind && kind != CurveKind) || name.size() == marker + 6)
     {
       continue;
     }
@@ -233,12 +245,11 @@ bool ReferenceCache::Load(std::uint64_t key, const char* kind, std::vector<char>
     contents.clear(); // unreadable: reported as damaged below
   }
   const std::size_t header = sizeof(Magic) + KindBytes + 2 * sizeof(std::uint64_t);
-  char storedKind[KindBytes] = {};
-  std::strncpy(storedKind, kind, KindBytes - 1);
+  const std::array<char, KindBytes> storedKind = KindField(kind);
   std::uint64_t storedKey = 0, size = 0, checksum = 0;
   bool intact = contents.size() >= header + sizeof(checksum) &&
     std::memcmp(contents.data(), Magic, sizeof(Magic)) == 0 &&
-    std::memcmp(contents.data() + sizeof(Magic), storedKind, KindBytes) == 0;
+    std::memcmp(contents.data() + sizeof(Magic), storedKind.data(), KindBytes) == 0;
   if (intact)
   {
     std::memcpy(&storedKey, contents.data() + sizeof(Magic) + KindBytes, sizeof(storedKey));
@@ -269,9 +280,7 @@ void ReferenceCache::Store(std::uint64_t key, const char* kind, const std::vecto
   std::vector<char> contents;
   contents.reserve(payload.size() + 64);
   AppendBytes(contents, Magic, sizeof(Magic));
-  char storedKind[KindBytes] = {};
-  std::strncpy(storedKind, kind, KindBytes - 1);
-  AppendBytes(contents, storedKind, KindBytes);
+  AppendBytes(contents, KindField(kind).data(), KindBytes);
   AppendValue(contents, key);
   AppendValue(contents, static_cast<std::uint64_t>(payload.size()));
   contents.insert(contents.end(), payload.begin(), payload.end());
@@ -317,7 +326,7 @@ bool ReferenceCache::LoadReference(
   std::uint64_t key, int width, int height, CachedReference& reference)
 {
   std::vector<char> payload;
-  if (!this->Load(key, "reference", payload))
+  if (!this->Load(key, ReferenceKind, payload))
   {
     return false;
   }
@@ -337,7 +346,7 @@ bool ReferenceCache::LoadReference(
   {
     // The key covers the size, so this is a file of another format under the same name.
     std::cerr << "\nholovolume-denoise-evaluation: the cached reference "
-              << this->PathOf(key, "reference") << " does not hold a " << width << "x" << height
+              << this->PathOf(key, ReferenceKind) << " does not hold a " << width << "x" << height
               << " frame; rendering it again\n";
     return false;
   }
@@ -360,13 +369,13 @@ void ReferenceCache::StoreReference(std::uint64_t key, const CachedReference& re
     AppendBytes(
       payload, reference.Radiance[e].data(), reference.Radiance[e].size() * sizeof(float));
   }
-  this->Store(key, "reference", payload);
+  this->Store(key, ReferenceKind, payload);
 }
 
 bool ReferenceCache::LoadCurve(std::uint64_t key, std::vector<std::pair<int, double>>& curve)
 {
   std::vector<char> payload;
-  if (!this->Load(key, "curve", payload))
+  if (!this->Load(key, CurveKind, payload))
   {
     return false;
   }
@@ -384,7 +393,7 @@ bool ReferenceCache::LoadCurve(std::uint64_t key, std::vector<std::pair<int, dou
   if (!complete || !reader.AtEnd() || points.empty())
   {
     std::cerr << "\nholovolume-denoise-evaluation: the cached raw-spp curve "
-              << this->PathOf(key, "curve") << " is not one; rendering it again\n";
+              << this->PathOf(key, CurveKind) << " is not one; rendering it again\n";
     return false;
   }
   curve = points;
@@ -401,6 +410,6 @@ void ReferenceCache::StoreCurve(std::uint64_t key, const std::vector<std::pair<i
     AppendValue(payload, static_cast<std::int32_t>(point.first));
     AppendValue(payload, point.second);
   }
-  this->Store(key, "curve", payload);
+  this->Store(key, CurveKind, payload);
 }
 }
