@@ -86,6 +86,7 @@ struct Options
   double PreviousLightingRadius = -1.0;      // the denoiser's default
   double WaveletAlbedoGradientWeight = -1.0; // the denoiser's default
   double StereoAgreementWidth = -1.0;        // the denoiser's default
+  double MaximumHistoryAngle = -1.0;         // the denoiser's default
   int StratifiedSubpixelSamples = -1; // the mapper's default
   bool RelightOnTransferFunctionChange = false;
   double ClassificationScalarTolerance = -1.0; // the denoiser's default
@@ -192,6 +193,10 @@ under the lamp, or with the new transfer function, all along.
                          the width of D2's noise test of the other eye's value, in standard
                          deviations, in every denoiser but the paper's lambda alone (which has
                          none), 0 to 100; 0: the paper's D2 weights [the denoiser's default, 8]
+  --maximum-history-angle DEGREES
+                         the widest arc of viewing directions a pixel's history may span, in
+                         every denoiser, 0 to 360; 0: no limit [the denoiser's default, 6]:
+                         only the orbit's camera turns
   --subpixel-samples random|stratified
                          where every render's samples enter their pixels (raw frames,
                          references, the raw-spp curve): independent uniform positions, or each
@@ -1115,6 +1120,9 @@ int main(int argc, char* argv[])
     else if (arg == "--stereo-agreement-width")
       options.StereoAgreementWidth =
         holovolume::NumberOption(program, "--stereo-agreement-width", value(), 0.0, 100.0);
+    else if (arg == "--maximum-history-angle")
+      options.MaximumHistoryAngle =
+        holovolume::NumberOption(program, "--maximum-history-angle", value(), 0.0, 360.0);
     else if (arg == "--wavelet-depth-from-history")
       options.WaveletDepthFromHistory =
         holovolume::IntegerOption(program, "--wavelet-depth-from-history", value(), 0, 1);
@@ -1422,6 +1430,15 @@ int main(int argc, char* argv[])
         options.WaveletLongHistory);
     }
   }
+  if (options.MaximumHistoryAngle > 0.0)
+  {
+    std::printf("\nevery denoiser's history spans at most %.3g degrees of viewing directions\n",
+      options.MaximumHistoryAngle);
+  }
+  else if (options.MaximumHistoryAngle == 0.0)
+  {
+    std::printf("\nevery denoiser's history spans any arc of viewing directions\n");
+  }
   if (options.WaveletNormalGradientFloor >= 0.0)
   {
     std::printf("\nevery denoiser's wavelet filter compares normals above a gradient of %.3g\n",
@@ -1717,6 +1734,10 @@ int main(int argc, char* argv[])
           if (options.WaveletLongHistory >= 0)
           {
             run[method]->SetWaveletLongHistory(options.WaveletLongHistory);
+          }
+          if (options.MaximumHistoryAngle >= 0.0)
+          {
+            run[method]->SetMaximumHistoryAngle(options.MaximumHistoryAngle);
           }
           if (options.WaveletNormalGradientFloor >= 0.0)
           {
