@@ -195,8 +195,8 @@ under the lamp, or with the new transfer function, all along.
                          none), 0 to 100; 0: the paper's D2 weights [the denoiser's default, 8]
   --maximum-history-angle DEGREES
                          the widest arc of viewing directions a pixel's history may span, in
-                         every denoiser, 0 to 360; 0: no limit [the denoiser's default, 6]:
-                         only the orbit's camera turns
+                         every denoiser, 0 to 360; 0: no limit [the denoiser's default, 6].
+                         Of the sequences only the orbit turns the camera, and only it changes
   --subpixel-samples random|stratified
                          where every render's samples enter their pixels (raw frames,
                          references, the raw-spp curve): independent uniform positions, or each
