@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <system_error>
 
 #if defined(__linux__)
@@ -31,6 +32,9 @@ constexpr std::size_t KindBytes = 16;
 // The kinds of entry, each a file name's extension.
 constexpr const char* ReferenceKind = "reference";
 constexpr const char* CurveKind = "curve";
+constexpr const char* Kinds[] = { ReferenceKind, CurveKind };
+// Store writes an entry as its path, this marker and the writer's PID, then renames it.
+constexpr const char* PartialMarker = ".part.";
 
 // The kind as the file stores it: its name padded with zeros to KindBytes.
 std::array<char, KindBytes> KindField(const char* kind)
@@ -188,20 +192,25 @@ void ReferenceCache::RemovePartialEntriesOfStoppedRuns()
   int removed = 0;
   for (const auto& entry : std::filesystem::directory_iterator(this->Directory, failure))
   {
-    // Only names Store writes (16 hex digits, a kind, .part. and the PID): the directory may be
-    // one the user shares with other files.
+    // Only names Store writes (an entry's name as PathOf gives it, the marker and the PID): the
+    // directory may be one the user shares with other files.
     const std::string name = entry.path().filename().string();
-    const std::size_t marker = name.rfind(".part.");
-    const bool hexKey = name.size() > 17 && name[16] == '.' &&
-      std::all_of(name.begin(), name.begin() + 16, [](char c) { return std::isxdigit(c) != 0; });
-    const std::string kind =
-      hexKey && marker != std::string::npos && marker > 17 ? name.substr(17, marker - 17) : "";
-    if ((kind != ReferenceKind && kind != CurveKind) || name.size() == marker + 6)
+    const std::size_t marker = name.rfind(PartialMarker);
+    if (marker == std::string::npos || marker < 16 ||
+      !std::all_of(name.begin(), name.begin() + 16, [](char c) { return std::isxdigit(c) != 0; }))
     {
       continue;
     }
-    const std::string digits = name.substr(marker + 6);
-    if (digits.size() > 9 ||
+    const std::string stem = name.substr(0, marker);
+    const std::uint64_t key = std::stoull(name.substr(0, 16), nullptr, 16);
+    if (std::none_of(std::begin(Kinds), std::end(Kinds),
+          [&](const char* kind)
+          { return std::filesystem::path(this->PathOf(key, kind)).filename() == stem; }))
+    {
+      continue;
+    }
+    const std::string digits = name.substr(marker + std::strlen(PartialMarker));
+    if (digits.empty() || digits.size() > 9 ||
       !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; }))
     {
       continue;
@@ -291,9 +300,11 @@ void ReferenceCache::Store(std::uint64_t key, const char* kind, const std::vecto
   // Written under a name of its own, then renamed: another run reading the cache meanwhile
   // sees the whole entry or none.
   const std::string path = this->PathOf(key, kind);
-  std::string temporary = path + ".part";
+  std::string temporary = path + PartialMarker;
 #if defined(__linux__)
-  temporary += "." + std::to_string(static_cast<long>(getpid()));
+  temporary += std::to_string(static_cast<long>(getpid()));
+#else
+  temporary.pop_back(); // KEY.KIND.part: no PID to tell whose it is
 #endif
   bool written = false;
   {
