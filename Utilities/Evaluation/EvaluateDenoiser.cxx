@@ -269,6 +269,27 @@ double MeanAbsoluteChange(const std::vector<float>& a, const std::vector<float>&
   return sum / static_cast<double>(a.size());
 }
 
+// The mean absolute frame-to-frame change of the error, |e_t - e_{t-1}| with e = display -
+// reference, against the error of the frame before, which it then replaces (an empty
+// `previousError` gives 0). Unlike flicker, it leaves out what the scene itself does between
+// the frames (the camera's motion, the light's change), which the references show too: what is
+// left is how much the method's error moves, its temporal noise and how its lag changes, plus
+// the references' own noise, the same for every method.
+double ErrorChange(const std::vector<float>& display, const std::vector<float>& reference,
+  std::vector<float>& previousError)
+{
+  const bool first = previousError.empty();
+  previousError.resize(display.size());
+  double sum = 0.0;
+  for (std::size_t i = 0; i < display.size(); ++i)
+  {
+    const float error = display[i] - reference[i];
+    sum += first ? 0.0 : std::abs(error - previousError[i]);
+    previousError[i] = error;
+  }
+  return sum / static_cast<double>(display.size());
+}
+
 glm::mat4 FieldMatrix(vtkImageData* image, const char* name)
 {
   vtkDataArray* array = image->GetFieldData()->GetArray(name);
@@ -515,8 +536,8 @@ double InterEyeDifference(const PixelPairs& pairs, const std::vector<float>& lef
 
 struct Accumulator
 {
-  double psnr = 0.0, ssim = 0.0, flicker = 0.0, errorDifference = 0.0, noiseDiscrepancy = 0.0,
-         centredNoiseDiscrepancy = 0.0;
+  double psnr = 0.0, ssim = 0.0, flicker = 0.0, errorChange = 0.0, errorDifference = 0.0,
+         noiseDiscrepancy = 0.0, centredNoiseDiscrepancy = 0.0;
   // The centred figure inside the silhouette and on it, and the silhouette's share of its
   // squares (each a per-frame figure, summed over the frames).
   double interiorNoiseDiscrepancy = 0.0, silhouetteNoiseDiscrepancy = 0.0,
@@ -531,6 +552,7 @@ struct Accumulator
   // NaN before the switch, where it is not measured.
   std::vector<std::vector<double>> lampAllAlongPsnrPerRunAndFrame;
   std::vector<float> previous[2];
+  std::vector<float> previousError[2]; // display - reference, for errorChange
 };
 
 // Each frame's PSNR, averaged over the runs.
@@ -1784,6 +1806,8 @@ int main(int argc, char* argv[])
       {
         a.previous[0].clear();
         a.previous[1].clear();
+        a.previousError[0].clear();
+        a.previousError[1].clear();
         a.psnrPerRunAndFrame.emplace_back();
         if (control)
         {
@@ -1940,6 +1964,7 @@ int main(int argc, char* argv[])
             {
               a.flicker += 0.5 * MeanAbsoluteChange(display[e], a.previous[e]);
             }
+            a.errorChange += 0.5 * ErrorChange(display[e], references[e], a.previousError[e]);
           }
           a.flickerFrames += a.previous[0].empty() ? 0 : 1;
           a.psnr += psnr;
@@ -2134,8 +2159,9 @@ int main(int argc, char* argv[])
         100.0 * materialChangedSum / materialChangedCount);
     }
     std::printf("\n\n| method | PSNR dB | SSIM | equal-quality spp | flicker (x1000) | "
-                "inter-eye noise discrepancy (x1000) | the same at centred correspondences "
-                "(x1000) | inter-eye error difference (x1000) |");
+                "error's frame-to-frame change (x1000) | inter-eye noise discrepancy (x1000) | "
+                "the same at centred correspondences (x1000) | inter-eye error difference "
+                "(x1000) |");
     if (sequence == "static")
     {
       std::printf(" PSNR at frame 16 |");
@@ -2144,7 +2170,7 @@ int main(int argc, char* argv[])
     {
       std::printf(" frames to recover | the same against the %s |", allAlong);
     }
-    std::printf("\n|---|---|---|---|---|---|---|---|%s\n",
+    std::printf("\n|---|---|---|---|---|---|---|---|---|%s\n",
       sequence == "static" ? "---|"
         : stepChange       ? "---|---|"
                            : "");
@@ -2163,9 +2189,10 @@ int main(int argc, char* argv[])
       {
         sppText << static_cast<int>(std::lround(spp));
       }
-      std::printf("| %s | %.2f | %.4f | %s | %.2f | %.2f | %.2f | %.2f |", MethodNames[m], psnr,
-        a.ssim / a.frames, sppText.str().c_str(),
+      std::printf("| %s | %.2f | %.4f | %s | %.2f | %.2f | %.2f | %.2f | %.2f |", MethodNames[m],
+        psnr, a.ssim / a.frames, sppText.str().c_str(),
         1000.0 * (a.flicker / std::max(a.flickerFrames, 1) - referenceFlickerMean),
+        1000.0 * a.errorChange / std::max(a.flickerFrames, 1),
         1000.0 * a.noiseDiscrepancy / a.frames, 1000.0 * a.centredNoiseDiscrepancy / a.frames,
         1000.0 * a.errorDifference / a.frames);
       if (sequence == "static")
@@ -2215,6 +2242,9 @@ int main(int argc, char* argv[])
       std::printf("\n");
     }
     std::printf("\nflicker: mean absolute frame-to-frame change minus the references' (%.4f); "
+                "error's change: mean absolute frame-to-frame change of the error (display "
+                "minus reference), in which the scene's own change cancels and the method's "
+                "temporal noise and changing lag remain, with the references' own noise; "
                 "noise discrepancy: RMS of the difference of the eyes' noise at corresponding "
                 "pixels (from a second run with independent random numbers), over all pairs and "
                 "over those whose point lies within a quarter pixel of the right pixel's centre "
