@@ -7,9 +7,9 @@
 // (T measured by vtkEnvironmentSyncedLight), (e) a new transfer function halfway (a raised
 // opacity threshold and other colours, as a user editing it would set). Per sequence and
 // method (raw, spatial only, temporal only, D1, D1 + D2): PSNR and SSIM of display values
-// against a per-frame reference, flicker, the inter-eye discrepancy, and for (d) and (e) the
-// frames until the PSNR recovers, against the frame before the change and against the same
-// frames with the lamp or the new transfer function all along.
+// against a per-frame reference, flicker and the error's frame-to-frame change, the inter-eye
+// discrepancy, and for (d) and (e) the frames until the PSNR recovers, against the frame before
+// the change and against the same frames with the lamp or the new transfer function all along.
 #include "vtkEnvironmentMapReader.h"
 #include "vtkEnvironmentSyncedLight.h"
 #include "vtkHoloVolumeScene.h"
