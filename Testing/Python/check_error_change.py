@@ -26,15 +26,16 @@ checks = Checklist()
 expect = checks.expect
 
 
+def cells(line):
+    return [cell.strip() for cell in line.strip("|").split("|")]
+
+
 def main_table(sequence):
     """The sequence's first table, as {method: {column: text}}, and the references' flicker."""
     section = result.stdout.split(f"## Sequence: {sequence}\n", 1)[1]
     lines = [line for line in section.split("\n\n", 2)[1].splitlines() if line.startswith("|")]
-    header = [cell.strip() for cell in lines[0].strip("|").split("|")]
-    rows = {}
-    for line in lines[2:]:
-        cells = [cell.strip() for cell in line.strip("|").split("|")]
-        rows[cells[0]] = dict(zip(header, cells))
+    header = cells(lines[0])
+    rows = {row[0]: dict(zip(header, row)) for row in map(cells, lines[2:])}
     reference = float(re.search(r"minus the references' \(([-0-9.]+)\)", section).group(1))
     return rows, reference
 
