@@ -98,6 +98,7 @@ struct Options
   std::string Calibration = "ricoh-theta";
   int CameraFrames = 30;
   bool CameraPacing = true;
+  bool CameraEveryFrame = false;
   bool CameraLoop = false;
   double CameraWait = 0.0;
   double ProxyRadius = 2500.0;
@@ -164,6 +165,9 @@ Live lighting from a 360-degree camera (Documentation/LiveLighting.md)
       --camera-no-pacing     files: decode as fast as possible (frames are skipped while
                              rendering) instead of at the file's frame rate, as a camera
                              would deliver them
+      --camera-every-frame   files: take the frames one after the other, none skipped
+                             however long a frame renders (a recording rendered
+                             offline; results that do not depend on the machine's load)
       --camera-loop          files: start again at the end
       --camera-wait S        before each frame, wait up to S seconds for a camera frame
                              newer than the last (to follow a recording frame by frame
@@ -461,6 +465,8 @@ bool ParseArguments(int argc, char* argv[], Options& options)
       options.CameraFrames = integer("--camera-frames", 1, 1000000);
     else if (argument == "--camera-no-pacing")
       options.CameraPacing = false;
+    else if (argument == "--camera-every-frame")
+      options.CameraEveryFrame = true;
     else if (argument == "--camera-loop")
       options.CameraLoop = true;
     else if (argument == "--camera-wait")
@@ -1029,6 +1035,7 @@ public:
   {
     this->Source->SetSource(this->Options_.Camera.c_str());
     this->Source->SetPaceToFrameRate(this->Options_.CameraPacing);
+    this->Source->SetDeliverEveryFrame(this->Options_.CameraEveryFrame);
     this->Source->SetLoop(this->Options_.CameraLoop);
     // Each frame takes the newest camera frame once, at its start (UpdateToNewestFrame), so
     // that the stages see the same frame.

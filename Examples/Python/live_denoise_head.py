@@ -2,7 +2,7 @@
 
     PYTHONPATH=build/python /usr/bin/python3 Examples/Python/live_denoise_head.py CAMERA
         [--calibration ricoh-theta] [--size 240x156] [--frames 24] [--camera-wait 10]
-        [--output live]
+        [--every-frame] [--output live]
 
 The pipeline the headset's stream runs, built from HoloVolume's VTK classes:
 
@@ -52,6 +52,11 @@ parser.add_argument("--frames", type=int, default=24, metavar="N",
 parser.add_argument("--camera-wait", type=float, default=10.0, metavar="S",
                     help="before each frame, wait up to S seconds for the camera's next frame; "
                     "0: take the newest without waiting [%(default)s]")
+parser.add_argument("--every-frame", action="store_true",
+                    help="a file: take its frames one after the other, none skipped however "
+                    "long a frame renders (a recording processed offline); without it the file "
+                    "plays at its frame rate, as a camera films, and frames that come while a "
+                    "frame renders are skipped")
 parser.add_argument("--output", default="live", metavar="PREFIX",
                     help="prefix of the PNG files [%(default)s]")
 args = parser.parse_args()
@@ -74,8 +79,9 @@ def on_error(caller, event, message):
 source = holovolume.vtkPanoramaVideoSource()
 source.SetSource(args.camera)
 # A file plays at its frame rate, as a camera films: frames that come while a frame renders
-# are skipped, unless --camera-wait has each frame wait for the next one.
+# are skipped, unless --every-frame holds each one back until the pipeline took the last.
 source.PaceToFrameRateOn()
+source.SetDeliverEveryFrame(args.every_frame)
 # Every rendered frame takes one camera frame, at its start, so that the whole chain sees it.
 source.AutoAdvanceOff()
 stitcher = holovolume.vtkDualFisheyeToEquirectangular()

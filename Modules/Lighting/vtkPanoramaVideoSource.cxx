@@ -88,6 +88,7 @@ bool vtkPanoramaVideoSource::Open()
   hv::lighting::PanoramaFrameGrabberOptions options;
   options.Loop = this->Loop;
   options.PaceToFrameRate = this->PaceToFrameRate;
+  options.DeliverEveryFrame = this->DeliverEveryFrame;
   options.DefaultFrameRate = this->DefaultFrameRate;
   options.Reconnect = this->Reconnect;
   options.ReconnectInitialDelay = this->ReconnectInitialDelay;
@@ -342,6 +343,7 @@ void vtkPanoramaVideoSource::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "Source: " << (this->Source ? this->Source : "(none)") << "\n";
   os << indent << "Loop: " << (this->Loop ? "On" : "Off") << "\n";
   os << indent << "PaceToFrameRate: " << (this->PaceToFrameRate ? "On" : "Off") << "\n";
+  os << indent << "DeliverEveryFrame: " << (this->DeliverEveryFrame ? "On" : "Off") << "\n";
   os << indent << "DefaultFrameRate: " << this->DefaultFrameRate << "\n";
   os << indent << "Reconnect: " << (this->Reconnect ? "On" : "Off") << "\n";
   os << indent << "ReconnectInitialDelay: " << this->ReconnectInitialDelay << "\n";

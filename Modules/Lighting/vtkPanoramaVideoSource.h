@@ -75,6 +75,19 @@ public:
 
   ///@{
   /**
+   * Files: hand over every frame in order (default off). The next frame is decoded only once
+   * the pipeline took the last one, so none is skipped however long a frame renders; with
+   * PaceToFrameRate a frame still comes no earlier than its time. For processing a recording
+   * offline and for runs that must not depend on the machine's load. Cameras and streams
+   * ignore it. Takes effect at the next Open().
+   */
+  vtkSetMacro(DeliverEveryFrame, bool);
+  vtkGetMacro(DeliverEveryFrame, bool);
+  vtkBooleanMacro(DeliverEveryFrame, bool);
+  ///@}
+
+  ///@{
+  /**
    * Live sources: reopen after the stream drops (default on), first after
    * ReconnectInitialDelay seconds, doubling the delay after every failure up to
    * ReconnectMaxDelay; give up after MaxReconnectAttempts consecutive failures (0: never).
@@ -184,6 +197,7 @@ protected:
   char* Source = nullptr;
   bool Loop = false;
   bool PaceToFrameRate = false;
+  bool DeliverEveryFrame = false;
   double DefaultFrameRate = 30.0;
   bool Reconnect = true;
   double ReconnectInitialDelay = 0.25;

@@ -13,7 +13,8 @@ radiance on the lamp's frame and the three after it. The test asks that:
   T of at least 0.2, and the history is kept (relit) rather than dropped;
 - from the switch on the denoised frame's mean radiance stays within 20 % of the raw frame's
   (the raw frames' own spread at 48x32 is about 5 %);
-- the denoised images, and a raw and a denoised image per rendered frame, were written.
+- the denoised images, and a raw and a denoised image per rendered frame, were written;
+- with --camera-every-frame, rendered frame i (counted from 1) took camera frame i - 1.
 """
 import os
 import re
@@ -47,6 +48,11 @@ def main():
     if len(frames) != total:
         return f"expected {total} per-frame lines with the denoiser's figures, read {len(frames)}"
 
+    if "--camera-every-frame" in arguments:
+        skipped = [(f["frame"], f["camera"]) for f in frames if f["camera"] != f["frame"] - 1]
+        if skipped:
+            return ("with --camera-every-frame each rendered frame takes the next camera frame; "
+                    f"(rendered, camera) frames {skipped} do not")
     before = [f for f in frames[1:] if f["camera"] < switch_frame]
     after = [f for f in frames if f["camera"] >= switch_frame]
     if not before or not after:

@@ -12,7 +12,8 @@ denoiser takes T from that input once per camera frame, so the test asks that:
 - on the frames after it T is below 0.05 again: the lamp's T counted once;
 - from the switch on the denoised frame's mean radiance stays within 20 % of the raw frame's,
   which the lamp brightens by more than half;
-- both eyes' PNG files were written.
+- both eyes' PNG files were written;
+- with --every-frame, rendered frame i took camera frame i: none skipped, none taken twice.
 """
 import os
 import re
@@ -40,6 +41,11 @@ def main():
               for m in ROW.finditer(run.stdout)]
     if len(frames) != total:
         return f"expected {total} rows of the per-frame table, read {len(frames)}"
+    if "--every-frame" in command:
+        skipped = [(f["frame"], f["camera"]) for f in frames if f["camera"] != f["frame"]]
+        if skipped:
+            return ("with --every-frame each rendered frame takes the next camera frame; "
+                    f"(rendered, camera) frames {skipped} do not")
     before = [f for f in frames[1:] if f["camera"] < switch_frame]
     after = [f for f in frames if f["camera"] >= switch_frame]
     if not before or len(after) < 2:

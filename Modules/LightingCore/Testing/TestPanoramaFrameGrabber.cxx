@@ -419,6 +419,56 @@ TEST(PanoramaFrameGrabber, SlowConsumerSeesNewestFramesAndCountsDrops)
   EXPECT_LE(unaccounted, 1);
 }
 
+TEST(PanoramaFrameGrabber, DeliverEveryFrameHandsOverEveryFrameInOrder)
+{
+  // The same slow consumer as above, on a paced 30 fps clip and on an unpaced one: with
+  // DeliverEveryFrame it takes every frame in order, whatever the decoder's or the file's rate.
+  const std::string path = "PanoramaFrameGrabber_clip_every.avi";
+  ASSERT_TRUE(writeClip(path, cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 30.0));
+  for (const bool paced : { false, true })
+  {
+    PanoramaFrameGrabberOptions options;
+    options.DeliverEveryFrame = true;
+    options.PaceToFrameRate = paced;
+    PanoramaFrameGrabber grabber(options);
+    grabber.open(path);
+    std::vector<std::int64_t> taken{ grabber.latest().Index };
+    PanoramaFrame frame;
+    while (grabber.waitForFrame(frame, taken.back(), 10.0))
+    {
+      EXPECT_EQ(decodeClipFrameNumber(frame.Image), frame.Index);
+      taken.push_back(frame.Index);
+      // Slower than the file's 33 ms a frame, and far slower than the decoder.
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+    const PanoramaFrameGrabberStatus status = grabber.status();
+    std::cout << "[ figures  ] " << (paced ? "paced" : "unpaced") << ", every frame: took "
+              << taken.size() << " of " << ClipFrames << " frames, received "
+              << status.FramesReceived << ", dropped " << status.FramesDropped << "\n";
+    ASSERT_EQ(taken.size(), static_cast<std::size_t>(ClipFrames));
+    for (std::size_t i = 0; i < taken.size(); ++i)
+    {
+      EXPECT_EQ(taken[i], static_cast<std::int64_t>(i));
+    }
+    EXPECT_TRUE(status.Finished);
+    EXPECT_EQ(status.FramesDropped, 0);
+    EXPECT_EQ(status.FramesDelivered, ClipFrames);
+  }
+  // A consumer that takes no frame holds the decoder at the first frame not yet taken, and
+  // close() still returns at once.
+  PanoramaFrameGrabberOptions options;
+  options.DeliverEveryFrame = true;
+  PanoramaFrameGrabber grabber(options);
+  grabber.open(path);
+  grabber.latest();
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  EXPECT_EQ(grabber.status().FramesReceived, 2);
+  EXPECT_EQ(grabber.status().FramesDropped, 0);
+  const auto start = std::chrono::steady_clock::now();
+  grabber.close();
+  EXPECT_LT(elapsedMs(start), 1000.0);
+}
+
 TEST(PanoramaFrameGrabber, LatestNeverWaitsForTheSource)
 {
   // A 5 fps live-like source: a call that waited for the next frame would take up to 200 ms.

@@ -521,6 +521,7 @@ struct PanoramaFrameGrabber::Internals
   // Guards everything below; held only for header copies and counter updates.
   mutable std::mutex Mutex;
   std::condition_variable FrameArrived; // also signalled when the source finishes
+  std::condition_variable FrameTaken;   // DeliverEveryFrame: the newest frame was handed out
   std::condition_variable StopSignal;
   bool StopRequested = false;
   PanoramaFrame Newest;
@@ -533,6 +534,7 @@ struct PanoramaFrameGrabber::Internals
     {
       this->DeliveredIndex = this->Newest.Index;
       ++this->Status.FramesDelivered;
+      this->FrameTaken.notify_all();
     }
     return this->Newest;
   }
@@ -578,6 +580,15 @@ struct PanoramaFrameGrabber::Internals
     return !this->StopSignal.wait_until(lock, deadline, [this] { return this->StopRequested; });
   }
 
+  // Waits until the newest frame was handed out; false when close() asked the thread to stop.
+  bool waitUntilTaken()
+  {
+    std::unique_lock<std::mutex> lock(this->Mutex);
+    this->FrameTaken.wait(
+      lock, [this] { return this->StopRequested || this->Newest.Index <= this->DeliveredIndex; });
+    return !this->StopRequested;
+  }
+
   bool stopRequested() const
   {
     std::lock_guard<std::mutex> lock(this->Mutex);
@@ -595,6 +606,7 @@ void PanoramaFrameGrabber::Internals::capture(
 {
   const bool live = isLiveKind(this->Kind);
   const bool paced = options.PaceToFrameRate && !live;
+  const bool everyFrame = options.DeliverEveryFrame && !live;
   const double rate = reader->frameRate() > 0.0 ? reader->frameRate() : options.DefaultFrameRate;
   const SteadyClock::duration period = secondsToDuration(1.0 / std::max(rate, 1e-3));
   SteadyClock::time_point deadline = SteadyClock::now() + period;
@@ -642,6 +654,10 @@ void PanoramaFrameGrabber::Internals::capture(
       }
     }
 
+    if (everyFrame && !this->waitUntilTaken())
+    {
+      break;
+    }
     if (paced)
     {
       if (!this->sleepUntil(deadline))
@@ -803,6 +819,7 @@ void PanoramaFrameGrabber::close()
   }
   impl.StopSignal.notify_all();
   impl.FrameArrived.notify_all();
+  impl.FrameTaken.notify_all();
   if (impl.Thread.joinable())
   {
     impl.Thread.join();

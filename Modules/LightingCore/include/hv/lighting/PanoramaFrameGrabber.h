@@ -38,6 +38,12 @@ struct PanoramaFrameGrabberOptions
   // newest frame is kept, a consumer slower than the decoder then skips frames.
   bool PaceToFrameRate = false;
   double DefaultFrameRate = 30.0;
+  // Files: hand over every frame, in order. The capture thread decodes the next frame only
+  // once the last one was taken, so a consumer slower than the file's rate (or than the
+  // decoder) drops none; with PaceToFrameRate a frame still comes no earlier than its time.
+  // For processing a recording offline, and for results that must not depend on the
+  // machine's load. Live sources ignore it: a camera does not wait.
+  bool DeliverEveryFrame = false;
   // Live sources (devices and network streams): reopen after the stream drops. A network
   // stream that reaches its end counts as dropped, since a live stream never ends. The wait
   // before each attempt starts at ReconnectInitialDelay and doubles after every failed
@@ -82,7 +88,8 @@ struct SceneLinearRepair
 // A capture thread decodes frames and keeps only the newest one ("latest wins"): latest() and
 // tryGetNewFrame() return at once with whatever is newest and never wait on the camera, so a
 // render loop is never held up by the source; frames that are overwritten before anybody takes
-// them are counted as dropped. waitForFrame() blocks, for tools and tests.
+// them are counted as dropped. waitForFrame() blocks, for tools and tests. With
+// DeliverEveryFrame a file's thread waits for each frame to be taken instead, and drops none.
 //
 // Pixel conversions (the documented answer to frames the lighting chain does not take as is):
 // - video and camera frames (8-bit BGR from OpenCV) are converted to RGB, CV_8UC3,
