@@ -271,6 +271,46 @@ int TestPanoramaVideoSource(int, char*[])
       "a still image after SetSource");
   }
 
+  // --- DeliverEveryFrame: the same three frames unpaced, decoded in about a millisecond each,
+  // and a pipeline that updates every 100 ms. Without the option the second Update finds the
+  // decoder at the end (waited for, so that a loaded machine cannot make it look right) and
+  // skips frame 1; with it every Update takes the next frame.
+  for (const bool everyFrame : { false, true })
+  {
+    vtkNew<vtkPanoramaVideoSource> source;
+    source->SetSource((directory + "/pano_%04d.png").c_str());
+    source->SetDeliverEveryFrame(everyFrame);
+    std::vector<vtkTypeInt64> taken;
+    for (int update = 0; update < 3; ++update)
+    {
+      source->Update();
+      taken.push_back(FieldInt(source->GetOutput(), "FrameIndex"));
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      if (!everyFrame)
+      {
+        Expect(WaitUntil([&] { return source->GetFinished(); }, 5.0),
+          "DeliverEveryFrame off: the decoder reaches the end");
+      }
+    }
+    const std::string label = everyFrame ? "DeliverEveryFrame on" : "DeliverEveryFrame off";
+    if (everyFrame)
+    {
+      Expect(taken == std::vector<vtkTypeInt64>{ 0, 1, 2 }, label + ": frames 0, 1, 2 in turn");
+      Expect(SameScalars(source->GetOutput(), frames[2]), label + ": the last frame's pixels");
+      Expect(source->GetFramesDropped() == 0, label + ": nothing dropped");
+    }
+    else
+    {
+      Expect(taken[1] == 2 && source->GetFramesDropped() == 1,
+        label + ": the decoder ran ahead and frame 1 was dropped");
+    }
+    std::ostringstream printed;
+    source->Print(printed);
+    Expect(printed.str().find(std::string("DeliverEveryFrame: ") + (everyFrame ? "On" : "Off")) !=
+        std::string::npos,
+      label + ": PrintSelf");
+  }
+
   // --- 16-bit PNG: unsigned short scalars.
   {
     auto image = vtkSmartPointer<vtkImageData>::New();
