@@ -21,7 +21,7 @@ HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide, const Colour
   static const float kernel[3] = { 0.25f, 0.5f, 0.25f };
   const int count = end - begin;
   thread_local std::vector<float> scratch;
-  scratch.resize(static_cast<std::size_t>(count) * 2);
+  scratch.resize(static_cast<std::size_t>(count) * 2 + 8 * 512); // the blur's and the exponents'
   float* __restrict blurWeight = scratch.data();
   float* __restrict blurredVariance = scratch.data() + count;
   const std::size_t row = static_cast<std::size_t>(y) * width + begin; // pixel of x = begin
@@ -107,63 +107,106 @@ HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide, const Colour
     }
   }
 
-  // One pixel, all nine taps: its guide and its sums stay in registers, where a loop per tap
-  // streamed the sums and the centre's guide through the cache eight times.
-  auto filterPixel = [&](int x, const std::ptrdiff_t(&offset)[8], const float(&k)[8])
-                       HV_ALWAYS_INLINE
+  // The span in chunks, each in two passes. First a loop per tap computes the eight taps'
+  // exponents of the guide (albedo, normal, depth: waveletGeometricExponent) into the scratch;
+  // then one loop takes each pixel's nine taps, adds the luminance and coverage terms to those
+  // exponents and sums the taps with their sums in registers. In one pass GCC kept a pointer to
+  // every plane for every tap (72 for the guide alone), most of them on the stack and reloaded
+  // before each load (perf put a quarter of the filter's samples on the stack); a loop per tap
+  // reads 19 planes. The chunk's exponents, 16 KB, stay in the L1 cache for the second pass.
+  // Every result is bit for bit what one pass computed, and the filter takes about 1.5 ms less
+  // a stereo pair at 1440x936 (Documentation/Denoising.md, "Changes, measured").
+  constexpr int chunk = 512;
+  float* __restrict geometric = scratch.data() + 2 * static_cast<std::size_t>(count);
+  for (int chunkBegin = 0; chunkBegin < count; chunkBegin += chunk)
   {
-    const std::size_t i = row + x;
-    const float blurred = blurredVariance[x] / glm::max(blurWeight[x], 1e-12f);
-    const float luminanceScale = 1.0f / (luminanceSigma * std::sqrt(blurred) + 1e-6f);
-    const float centreLuminance = luminance(glm::vec3(r[i], g[i], b[i]));
-    // The centre tap, whose edge-stopping weight is 1.
-    const float centreWeight = kernel[1] * kernel[1];
-    float redSum = centreWeight * r[i];
-    float greenSum = centreWeight * g[i];
-    float blueSum = centreWeight * b[i];
-    float coverageSum = centreWeight * a[i];
-    float varianceSum = centreWeight * centreWeight * variance[i];
-    float weightSum = centreWeight;
-    auto addTap = [&](std::ptrdiff_t tapOffset, float k) HV_ALWAYS_INLINE
+    const int chunkCount = std::min(chunk, count - chunkBegin);
+    const std::size_t chunkRow = row + chunkBegin;
+    auto exponentsOfTap = [&](int t) HV_ALWAYS_INLINE
     {
-      const std::size_t j = i + tapOffset;
-      const float w = k * valid[j] *
-        waveletWeightOfChannels(depth[i], spread[i], gradient[i], glm::vec3(nx[i], ny[i], nz[i]),
-          glm::vec3(ax[i], ay[i], az[i]), centreLuminance, luminanceScale, depth[j], spread[j],
-          gradient[j], glm::vec3(nx[j], ny[j], nz[j]), glm::vec3(ax[j], ay[j], az[j]),
-          luminance(glm::vec3(r[j], g[j], b[j])), inverseAlbedo, edges,
-          (a[i] - a[j]) * (a[i] - a[j]) * coverageSharpness[i]);
-      redSum += w * r[j];
-      greenSum += w * g[j];
-      blueSum += w * b[j];
-      coverageSum += w * a[j];
-      varianceSum += w * w * variance[j];
-      weightSum += w;
+      float* __restrict tapExponent = geometric + t * chunk;
+      auto geometricPixel = [&](int x, const std::ptrdiff_t(&offset)[1], const float(&)[1])
+                              HV_ALWAYS_INLINE
+      {
+        const std::size_t i = chunkRow + x;
+        const std::size_t j = i + offset[0];
+        tapExponent[x] =
+          waveletGeometricExponent(depth[i], spread[i], gradient[i], glm::vec3(nx[i], ny[i], nz[i]),
+            glm::vec3(ax[i], ay[i], az[i]), depth[j], spread[j], gradient[j],
+            glm::vec3(nx[j], ny[j], nz[j]), glm::vec3(ax[j], ay[j], az[j]), inverseAlbedo, edges);
+      };
+      const int column[1] = { tapColumn[t] };
+      const std::ptrdiff_t offset[1] = { tapOffset[t] };
+      const float weight[1] = { tapKernel[t] };
+      forStencilOfSpan(
+        begin + chunkBegin, chunkCount, width, step, column, offset, weight, geometricPixel);
     };
-    // Written out: GCC 12 vectorises the pixel loop only once no loop is left inside it.
-    addTap(offset[0], k[0]);
-    addTap(offset[1], k[1]);
-    addTap(offset[2], k[2]);
-    addTap(offset[3], k[3]);
-    addTap(offset[4], k[4]);
-    addTap(offset[5], k[5]);
-    addTap(offset[6], k[6]);
-    addTap(offset[7], k[7]);
-    // Unseen pixels keep their value (weightSum holds the centre tap's weight there too). A
-    // product with 0 or 1, not a select: for AVX2 and AVX-512, GCC 12 leaves a branch for the
-    // select, which keeps the loop scalar. All terms are finite, so the other one adds exactly 0.
-    const float seen = valid[i] > 0.0f ? 1.0f : 0.0f;
-    const float unseen = 1.0f - seen;
-    filteredRed[i] = seen * (redSum / weightSum) + unseen * r[i];
-    filteredGreen[i] = seen * (greenSum / weightSum) + unseen * g[i];
-    filteredBlue[i] = seen * (blueSum / weightSum) + unseen * b[i];
-    filteredCoverage[i] = seen * (coverageSum / weightSum) + unseen * a[i];
-    filteredVariance[i] = seen * (varianceSum / (weightSum * weightSum));
-  };
+    // Written out, here and for the taps below: GCC 12 vectorises a pixel loop only once no
+    // loop is left inside it.
+    exponentsOfTap(0);
+    exponentsOfTap(1);
+    exponentsOfTap(2);
+    exponentsOfTap(3);
+    exponentsOfTap(4);
+    exponentsOfTap(5);
+    exponentsOfTap(6);
+    exponentsOfTap(7);
 
-  // forStencilOfSpan is inlined, so its loop over the pixels vectorises as if written here; a
-  // closure that wraps filterPixel would keep GCC from vectorising it.
-  forStencilOfSpan(begin, count, width, step, tapColumn, tapOffset, tapKernel, filterPixel);
+    auto filterPixel = [&](int x, const std::ptrdiff_t(&offset)[8], const float(&k)[8])
+                         HV_ALWAYS_INLINE
+    {
+      const std::size_t i = chunkRow + x;
+      const float blurred =
+        blurredVariance[chunkBegin + x] / glm::max(blurWeight[chunkBegin + x], 1e-12f);
+      const float luminanceScale = 1.0f / (luminanceSigma * std::sqrt(blurred) + 1e-6f);
+      const float centreLuminance = luminance(glm::vec3(r[i], g[i], b[i]));
+      // The centre tap, whose edge-stopping weight is 1.
+      const float centreWeight = kernel[1] * kernel[1];
+      float redSum = centreWeight * r[i];
+      float greenSum = centreWeight * g[i];
+      float blueSum = centreWeight * b[i];
+      float coverageSum = centreWeight * a[i];
+      float varianceSum = centreWeight * centreWeight * variance[i];
+      float weightSum = centreWeight;
+      auto addTap = [&](int t) HV_ALWAYS_INLINE
+      {
+        const std::size_t j = i + offset[t];
+        const float w = k[t] * valid[j] *
+          waveletWeightOfExponents(geometric[t * chunk + x],
+            fabsf(centreLuminance - luminance(glm::vec3(r[j], g[j], b[j]))) * luminanceScale,
+            (a[i] - a[j]) * (a[i] - a[j]) * coverageSharpness[i]);
+        redSum += w * r[j];
+        greenSum += w * g[j];
+        blueSum += w * b[j];
+        coverageSum += w * a[j];
+        varianceSum += w * w * variance[j];
+        weightSum += w;
+      };
+      addTap(0);
+      addTap(1);
+      addTap(2);
+      addTap(3);
+      addTap(4);
+      addTap(5);
+      addTap(6);
+      addTap(7);
+      // Unseen pixels keep their value (weightSum holds the centre tap's weight there too). A
+      // product with 0 or 1, not a select: for AVX2 and AVX-512, GCC 12 leaves a branch for the
+      // select, which keeps the loop scalar. All terms are finite, so the other one adds
+      // exactly 0.
+      const float seen = valid[i] > 0.0f ? 1.0f : 0.0f;
+      const float unseen = 1.0f - seen;
+      filteredRed[i] = seen * (redSum / weightSum) + unseen * r[i];
+      filteredGreen[i] = seen * (greenSum / weightSum) + unseen * g[i];
+      filteredBlue[i] = seen * (blueSum / weightSum) + unseen * b[i];
+      filteredCoverage[i] = seen * (coverageSum / weightSum) + unseen * a[i];
+      filteredVariance[i] = seen * (varianceSum / (weightSum * weightSum));
+    };
+    // forStencilOfSpan is inlined, so its loops over the pixels vectorise as if written here;
+    // a closure that wraps the per-pixel lambdas would keep GCC from vectorising them.
+    forStencilOfSpan(
+      begin + chunkBegin, chunkCount, width, step, tapColumn, tapOffset, tapKernel, filterPixel);
+  }
 }
 }
 }

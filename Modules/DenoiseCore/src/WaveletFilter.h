@@ -21,8 +21,9 @@ namespace detail
 // One level of the edge-aware a-trous wavelet filter for the pixels [begin, end) of row y:
 // 3x3 B-spline taps at distance `step`, each weighted by the edge-stopping functions and by
 // the variance-guided luminance term (SVGF Eq. 5), whose scale comes from the 3x3-blurred
-// variance. One loop over the span takes each pixel's nine taps, reading every plane at
-// consecutive pixels, so the compiler turns it into vector code.
+// variance. Per chunk of the span, a loop per tap computes the guide's terms of the weights,
+// then one loop takes each pixel's nine taps; every loop reads its planes at consecutive
+// pixels, so the compiler turns it into vector code.
 // `depthGuide` is the plane the depth edge-stopping compares (the frame's first scatter depth,
 // or the history's mean of it); the guide's depth spread stays the frame's.
 // Each call writes the row's pixels of `out` and `outVariance` from those of `in` and

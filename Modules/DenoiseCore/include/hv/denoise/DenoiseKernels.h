@@ -466,11 +466,14 @@ HV_FUNCTION glm::vec4 remodulate(const glm::vec4& signal, const glm::vec3& albed
 // planes (one array per channel) and evaluate a row of taps as vectors.
 // inverseTwoAlbedoSigmaSquared = 1 / (2 sigma_albedo^2); coverageTerm, the coverage edge-
 // stopping (a_i - a_j)^2 coverageSharpness(...), adds to the exponent.
-HV_FUNCTION float waveletWeightOfChannels(float centreDepth, float centreSpread,
+// The weight is e^-(exponent), its exponent the sum of the guide's terms (albedo, normal,
+// depth: waveletGeometricExponent), the luminance term and the coverage term, in that order;
+// waveletWeightOfExponents takes the first as a number, so that the CPU filter can compute the
+// guide's terms in loops of their own (src/WaveletFilter.cxx) and get the same bits.
+HV_FUNCTION float waveletGeometricExponent(float centreDepth, float centreSpread,
   float centreGradient, const glm::vec3& centreNormal, const glm::vec3& centreAlbedo,
-  float centreLuminance, float luminanceScale, float tapDepth, float tapSpread, float tapGradient,
-  const glm::vec3& tapNormal, const glm::vec3& tapAlbedo, float tapLuminance,
-  float inverseTwoAlbedoSigmaSquared, const EdgeStopping& e, float coverageTerm = 0.0f)
+  float tapDepth, float tapSpread, float tapGradient, const glm::vec3& tapNormal,
+  const glm::vec3& tapAlbedo, float inverseTwoAlbedoSigmaSquared, const EdgeStopping& e)
 {
   const glm::vec3 albedoDifference = centreAlbedo - tapAlbedo;
   const float albedoTerm = glm::dot(albedoDifference, albedoDifference) *
@@ -484,7 +487,12 @@ HV_FUNCTION float waveletWeightOfChannels(float centreDepth, float centreSpread,
   const float depthTerm = fabsf(centreDepth - tapDepth) /
     (e.depthSigma * glm::max(centreDepth, 1e-6f) +
       depthSlack(centreSpread, centreGradient, tapSpread, tapGradient) + 1e-12f);
-  const float luminanceTerm = fabsf(centreLuminance - tapLuminance) * luminanceScale;
+  return albedoTerm + normalTerm + depthTerm;
+}
+
+HV_FUNCTION float waveletWeightOfExponents(
+  float geometricExponent, float luminanceTerm, float coverageTerm)
+{
   // A weight below e^-30 (1e-13) adds nothing a float sum can hold next to the centre tap's
   // 0.25. Zeroing it keeps the weights and their squares (variance propagation) out of the
   // subnormal range, which is slow on x86 and flushed on GPUs (e^-x itself stays normal, its
@@ -493,9 +501,21 @@ HV_FUNCTION float waveletWeightOfChannels(float centreDepth, float centreSpread,
   // that keeps the whole wavelet loop scalar (2.2x slower than SSE2). The exponent is not
   // clamped at 30 first: that comparison of floats cost the loop as clampNonNegativeBits
   // explains.
-  const float exponent = albedoTerm + normalTerm + depthTerm + luminanceTerm + coverageTerm;
+  const float exponent = geometricExponent + luminanceTerm + coverageTerm;
   const float keep = exponent < 30.0f ? 1.0f : 0.0f;
   return keep * exponentialOfNegative(exponent);
+}
+
+HV_FUNCTION float waveletWeightOfChannels(float centreDepth, float centreSpread,
+  float centreGradient, const glm::vec3& centreNormal, const glm::vec3& centreAlbedo,
+  float centreLuminance, float luminanceScale, float tapDepth, float tapSpread, float tapGradient,
+  const glm::vec3& tapNormal, const glm::vec3& tapAlbedo, float tapLuminance,
+  float inverseTwoAlbedoSigmaSquared, const EdgeStopping& e, float coverageTerm = 0.0f)
+{
+  return waveletWeightOfExponents(
+    waveletGeometricExponent(centreDepth, centreSpread, centreGradient, centreNormal, centreAlbedo,
+      tapDepth, tapSpread, tapGradient, tapNormal, tapAlbedo, inverseTwoAlbedoSigmaSquared, e),
+    fabsf(centreLuminance - tapLuminance) * luminanceScale, coverageTerm);
 }
 
 HV_FUNCTION float inverseTwoSigmaSquared(float sigma)
