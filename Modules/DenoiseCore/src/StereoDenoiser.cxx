@@ -2726,10 +2726,6 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       const float* __restrict fusedWeight = eye.fusedWeight.data() + row;
       const float* __restrict rawLuminanceOf = eye.rawLuminance.data() + row;
       const float* __restrict depthOf = eye.surface.depth.data() + row;
-      float* __restrict accumulatedRed = eye.filtered[0].channel[0].data() + row;
-      float* __restrict accumulatedGreen = eye.filtered[0].channel[1].data() + row;
-      float* __restrict accumulatedBlue = eye.filtered[0].channel[2].data() + row;
-      float* __restrict accumulatedCoverage = eye.filtered[0].channel[3].data() + row;
       float* __restrict variance = eye.variance[0].data() + row;
       float* __restrict coverageSharpnessOf = eye.surface.coverageSharpness.data() + row;
       // Loop invariants as locals: the stores through the planes could otherwise alias them.
@@ -2913,10 +2909,6 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
             ? infoLuminanceSquareMean - infoLuminanceMean * infoLuminanceMean
             : luminanceSquareMean - luminanceMean * luminanceMean;
           const bool surface = seen[k] > 0.0f;
-          accumulatedRed[k] = blended.x;
-          accumulatedGreen[k] = blended.y;
-          accumulatedBlue[k] = blended.z;
-          accumulatedCoverage[k] = blended.w;
           variance[k] =
             surface ? glm::max(frameVariance, 0.0f) / glm::max(infoSampleCount, 1.0f) : 0.0f;
           // The wavelet filter's coverage edge-stopping at this pixel, from the 3x3 mean
@@ -2998,6 +2990,12 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
   // time), and only pixels that start over, or have just started, take every level.
   const float longHistory = p.temporalAccumulation ? p.waveletLongHistory : 0.0f;
   const bool depthFromHistory = p.temporalAccumulation && p.waveletDepthFromHistory;
+  // The first level filters the accumulated signal, the history's colour as the temporal
+  // blending left it (the blending writes it once, not also into a plane of its own), and each
+  // level after it the ping-pong plane the level before wrote.
+  const auto waveletInput = [](const EyeState& eye, int level,
+                              int source) -> const PlaneVector<float>(&)[4]
+  { return level == 0 ? eye.nextHistory.colour : eye.filtered[source].channel; };
   for (int level = 0; level < levels; ++level)
   {
     const int step = 1 << level;
@@ -3008,11 +3006,12 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       [&](int e, int y, int begin, int end)
       {
         EyeState& eye = impl.eyes[e];
+        const PlaneVector<float>(&input)[4] = waveletInput(eye, level, source);
         auto filterRun = [&](int runBegin, int runEnd)
         {
-          filterWaveletRow(eye.surface, eye.filtered[source], eye.variance[source],
-            eye.filtered[target], eye.variance[target], width, height, y, runBegin, runEnd, step,
-            p.luminanceSigma, p.wavelet,
+          filterWaveletRow(eye.surface, input, eye.variance[source], eye.filtered[target],
+            eye.variance[target], width, height, y, runBegin, runEnd, step, p.luminanceSigma,
+            p.wavelet,
             depthFromHistory ? eye.nextHistory.depthMean.data() : eye.surface.depth.data());
         };
         if (!adaptive)
@@ -3038,7 +3037,7 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
           }
           for (int c = 0; c < 4; ++c)
           {
-            const PlaneVector<float>& from = eye.filtered[source].channel[c];
+            const PlaneVector<float>& from = input[c];
             std::copy(from.begin() + row + x, from.begin() + row + runEnd,
               eye.filtered[target].channel[c].begin() + row + x);
           }
@@ -3059,7 +3058,8 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
     [&](int e, int y, int begin, int end) HV_WIDEST_VECTORS
     {
       EyeState& eye = impl.eyes[e];
-      const ColourPlanes& in = eye.filtered[source];
+      // The last level's output; the accumulated signal where no level ran.
+      const PlaneVector<float>(&in)[4] = waveletInput(eye, levels, source);
       const PlaneVector<float>(&meanAlbedo)[3] =
         albedoFromHistory ? eye.nextHistory.albedoMean : eye.surface.albedo;
       const std::size_t row = static_cast<std::size_t>(y) * width;
@@ -3071,10 +3071,10 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       const float* __restrict meanBlue = meanAlbedo[2].data() + row;
       const float* __restrict gradientMagnitude = eye.surface.gradientMagnitude.data() + row;
       const float* __restrict seen = eye.surface.valid.data() + row;
-      const float* __restrict inRed = in.channel[0].data() + row;
-      const float* __restrict inGreen = in.channel[1].data() + row;
-      const float* __restrict inBlue = in.channel[2].data() + row;
-      const float* __restrict inCoverage = in.channel[3].data() + row;
+      const float* __restrict inRed = in[0].data() + row;
+      const float* __restrict inGreen = in[1].data() + row;
+      const float* __restrict inBlue = in[2].data() + row;
+      const float* __restrict inCoverage = in[3].data() + row;
       float* __restrict outRed = eye.firstStep.channel[0].data() + row;
       float* __restrict outGreen = eye.firstStep.channel[1].data() + row;
       float* __restrict outBlue = eye.firstStep.channel[2].data() + row;

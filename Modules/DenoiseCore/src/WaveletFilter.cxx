@@ -11,10 +11,10 @@ namespace denoise
 {
 namespace detail
 {
-HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide, const ColourPlanes& in,
-  const PlaneVector<float>& inVariance, ColourPlanes& out, PlaneVector<float>& outVariance,
-  int width, int height, int y, int begin, int end, int step, float luminanceSigma,
-  const EdgeStopping edges, const float* depthGuide)
+HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide,
+  const PlaneVector<float> (&in)[4], const PlaneVector<float>& inVariance, ColourPlanes& out,
+  PlaneVector<float>& outVariance, int width, int height, int y, int begin, int end, int step,
+  float luminanceSigma, const EdgeStopping edges, const float* depthGuide)
 {
   // The loops are marked ivdep: their planes never overlap (GCC honours __restrict on these
   // local pointers only in part), which is what lets it vectorise them.
@@ -63,10 +63,10 @@ HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide, const Colour
     forStencilOfSpan(begin, count, width, 1, blurColumn, blurOffset, blurKernel, blurPixel);
   }
 
-  const float* __restrict r = in.channel[0].data();
-  const float* __restrict g = in.channel[1].data();
-  const float* __restrict b = in.channel[2].data();
-  const float* __restrict a = in.channel[3].data();
+  const float* __restrict r = in[0].data();
+  const float* __restrict g = in[1].data();
+  const float* __restrict b = in[2].data();
+  const float* __restrict a = in[3].data();
   const float* __restrict depth = depthGuide;
   const float* __restrict spread = guide.depthSpread.data();
   const float* __restrict gradient = guide.gradientMagnitude.data();

@@ -28,7 +28,7 @@ namespace detail
 // or the history's mean of it); the guide's depth spread stays the frame's.
 // Each call writes the row's pixels of `out` and `outVariance` from those of `in` and
 // `inVariance` around them; the rows of a level may therefore run in any order and in parallel.
-void filterWaveletRow(const SurfacePlanes& guide, const ColourPlanes& in,
+void filterWaveletRow(const SurfacePlanes& guide, const PlaneVector<float> (&in)[4],
   const PlaneVector<float>& inVariance, ColourPlanes& out, PlaneVector<float>& outVariance,
   int width, int height, int y, int begin, int end, int step, float luminanceSigma,
   const EdgeStopping edges, const float* depthGuide);
