@@ -454,14 +454,15 @@ TEST(PanoramaFrameGrabber, DeliverEveryFrameHandsOverEveryFrameInOrder)
     EXPECT_EQ(status.FramesDropped, 0);
     EXPECT_EQ(status.FramesDelivered, ClipFrames);
   }
-  // A consumer that takes no frame holds the decoder at the first frame not yet taken, and
-  // close() still returns at once.
+  // A consumer that takes no frame after the first holds the decoder at frame 1, the first
+  // not taken, and close() still returns at once.
   PanoramaFrameGrabberOptions options;
   options.DeliverEveryFrame = true;
   PanoramaFrameGrabber grabber(options);
   grabber.open(path);
   grabber.latest();
-  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  ASSERT_TRUE(waitUntil([&] { return grabber.status().FramesReceived >= 2; }, 20.0));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200)); // time to run ahead, if it could
   EXPECT_EQ(grabber.status().FramesReceived, 2);
   EXPECT_EQ(grabber.status().FramesDropped, 0);
   const auto start = std::chrono::steady_clock::now();
