@@ -20,8 +20,11 @@ HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide,
   // local pointers only in part), which is what lets it vectorise them.
   static const float kernel[3] = { 0.25f, 0.5f, 0.25f };
   const int count = end - begin;
+  // The second loop below takes the span in chunks of this many pixels (see there).
+  constexpr int chunk = 512;
   thread_local std::vector<float> scratch;
-  scratch.resize(static_cast<std::size_t>(count) * 2 + 8 * 512); // the blur's and the exponents'
+  // The variance blur's two planes of the span, and the eight taps' exponents of a chunk.
+  scratch.resize(static_cast<std::size_t>(count) * 2 + 8 * chunk);
   float* __restrict blurWeight = scratch.data();
   float* __restrict blurredVariance = scratch.data() + count;
   const std::size_t row = static_cast<std::size_t>(y) * width + begin; // pixel of x = begin
@@ -116,7 +119,6 @@ HV_WIDEST_VECTORS void filterWaveletRow(const SurfacePlanes& guide,
   // reads 19 planes. The chunk's exponents, 16 KB, stay in the L1 cache for the second pass.
   // Every result is bit for bit what one pass computed, and the filter takes about 1.5 ms less
   // a stereo pair at 1440x936 (Documentation/Denoising.md, "Changes, measured").
-  constexpr int chunk = 512;
   float* __restrict geometric = scratch.data() + 2 * static_cast<std::size_t>(count);
   for (int chunkBegin = 0; chunkBegin < count; chunkBegin += chunk)
   {
