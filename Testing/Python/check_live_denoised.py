@@ -21,6 +21,9 @@ import re
 import subprocess
 import sys
 
+from live_switch_checks import (every_frame_errors, follows_light_errors, history_errors,
+                                split_at_switch)
+
 LINE = re.compile(
     r"frame +(\d+)/(\d+) +camera frame (\d+)(?: \(same\))? +T ([0-9.]+) .*? "
     r"(map replaced|map kept) +denoise [0-9.]+ ms +history ([0-9.]+) frames +"
@@ -48,37 +51,20 @@ def main():
     if len(frames) != total:
         return f"expected {total} per-frame lines with the denoiser's figures, read {len(frames)}"
 
+    errors = []
     if "--camera-every-frame" in arguments:
-        skipped = [(f["frame"], f["camera"]) for f in frames if f["camera"] != f["frame"] - 1]
-        if skipped:
-            return ("with --camera-every-frame each rendered frame takes the next camera frame; "
-                    f"(rendered, camera) frames {skipped} do not")
-    before = [f for f in frames[1:] if f["camera"] < switch_frame]
-    after = [f for f in frames if f["camera"] >= switch_frame]
+        errors += every_frame_errors(frames, camera_offset=-1)
+    before, after = split_at_switch(frames, switch_frame)
     if not before or not after:
         return f"the clip did not cover the switch at camera frame {switch_frame}"
-    errors = []
     for f in before:
         if f["replaced"]:
             errors.append(f"frame {f['frame']}: the map was replaced before the lamp (T {f['T']})")
-    if before[-1]["history"] < 1.5:
-        errors.append(f"the history did not grow before the lamp ({before[-1]['history']} frames)")
     switch = after[0]
     if not switch["replaced"] or switch["T"] < 0.2:
         errors.append(f"frame {switch['frame']}: the lamp did not replace the map with T >= 0.2")
-    if switch["history"] < 1.5:
-        errors.append(f"frame {switch['frame']}: the history was dropped instead of relit "
-                      f"({switch['history']} frames)")
-    if switch["raw"] < 1.5 * before[-1]["raw"]:
-        errors.append("the lamp brightens the raw frame by less than half: the check below "
-                      "would not tell a relit history from a stale one")
-    for f in after:
-        ratio = f["denoised"] / f["raw"]
-        print(f"frame {f['frame']} (camera frame {f['camera']}): denoised / raw radiance "
-              f"{ratio:.3f}, history {f['history']} frames")
-        if not 0.8 <= ratio <= 1.2:
-            errors.append(f"frame {f['frame']}: denoised / raw radiance {ratio:.3f}, not within "
-                          "20 %: the denoised frame does not follow the new light")
+    errors += history_errors(before, switch)
+    errors += follows_light_errors(before, after)
 
     for name in ("left", "right", "stereo"):
         path = os.path.join(output, f"live-path-traced-denoised-{name}.png")
