@@ -464,6 +464,8 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.relightingRefinementFrames = this->RelightingRefinementFrames;
   p.bicubicHistory = this->BicubicHistory;
   p.maximumHistoryAngle = static_cast<float>(this->MaximumHistoryAngle);
+  p.grazingHistoryCosine = static_cast<float>(this->GrazingHistoryCosine);
+  p.grazingHistoryFraction = static_cast<float>(this->GrazingHistoryFraction);
   p.exponentialAverageAlpha = static_cast<float>(this->ExponentialAverageAlpha);
   p.depthTolerance = static_cast<float>(this->DepthTolerance);
   p.surfaceJitterTolerance = static_cast<float>(this->SurfaceJitterTolerance);
@@ -588,6 +590,8 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "RelightingRefinementFrames: " << this->RelightingRefinementFrames << "\n";
   os << indent << "BicubicHistory: " << (this->BicubicHistory ? "On" : "Off") << "\n";
   os << indent << "MaximumHistoryAngle: " << this->MaximumHistoryAngle << "\n";
+  os << indent << "GrazingHistoryCosine: " << this->GrazingHistoryCosine << "\n";
+  os << indent << "GrazingHistoryFraction: " << this->GrazingHistoryFraction << "\n";
   os << indent << "ExponentialAverageAlpha: " << this->ExponentialAverageAlpha << "\n";
   os << indent << "DepthTolerance: " << this->DepthTolerance << "\n";
   os << indent << "SurfaceJitterTolerance: " << this->SurfaceJitterTolerance << "\n";

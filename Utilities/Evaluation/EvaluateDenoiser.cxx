@@ -87,6 +87,8 @@ struct Options
   double WaveletAlbedoGradientWeight = -1.0; // the denoiser's default
   double StereoAgreementWidth = -1.0;        // the denoiser's default
   double MaximumHistoryAngle = -1.0;         // the denoiser's default
+  double GrazingHistoryCosine = -1.0;        // the denoiser's default
+  double GrazingHistoryFraction = -1.0;      // the denoiser's default
   int StratifiedSubpixelSamples = -1; // the mapper's default
   bool RelightOnTransferFunctionChange = false;
   double ClassificationScalarTolerance = -1.0; // the denoiser's default
@@ -197,6 +199,14 @@ under the lamp, or with the new transfer function, all along.
                          the widest arc of viewing directions a pixel's history may span, in
                          every denoiser, 0 to 360; 0: no limit [the denoiser's default, 6].
                          Of the sequences only the orbit turns the camera, and only it changes
+                         with this option
+  --grazing-history-cosine C
+                         below this cosine between the viewing direction and the surface normal
+                         the history's arc narrows in proportion to the cosine, in every
+                         denoiser, 0 to 1; 0: the whole arc everywhere [the denoiser's default, 0]
+  --grazing-history-fraction F
+                         the share of the arc kept where the view grazes the surface, 0 to 1
+                         [the denoiser's default, 0.5]; with --grazing-history-cosine
   --subpixel-samples random|stratified
                          where every render's samples enter their pixels (raw frames,
                          references, the raw-spp curve): independent uniform positions, or each
@@ -1145,6 +1155,12 @@ int main(int argc, char* argv[])
     else if (arg == "--maximum-history-angle")
       options.MaximumHistoryAngle =
         holovolume::NumberOption(program, "--maximum-history-angle", value(), 0.0, 360.0);
+    else if (arg == "--grazing-history-cosine")
+      options.GrazingHistoryCosine =
+        holovolume::NumberOption(program, "--grazing-history-cosine", value(), 0.0, 1.0);
+    else if (arg == "--grazing-history-fraction")
+      options.GrazingHistoryFraction =
+        holovolume::NumberOption(program, "--grazing-history-fraction", value(), 0.0, 1.0);
     else if (arg == "--wavelet-depth-from-history")
       options.WaveletDepthFromHistory =
         holovolume::IntegerOption(program, "--wavelet-depth-from-history", value(), 0, 1);
@@ -1461,6 +1477,13 @@ int main(int argc, char* argv[])
   {
     std::printf("\nevery denoiser's history spans any arc of viewing directions\n");
   }
+  if (options.GrazingHistoryCosine > 0.0 || options.GrazingHistoryFraction >= 0.0)
+  {
+    std::printf("\nevery denoiser's history arc narrows where the view grazes the surface: "
+                "below a cosine of %.3g, to no less than %.3g of it\n",
+      options.GrazingHistoryCosine >= 0.0 ? options.GrazingHistoryCosine : 0.0,
+      options.GrazingHistoryFraction >= 0.0 ? options.GrazingHistoryFraction : 0.5);
+  }
   if (options.WaveletNormalGradientFloor >= 0.0)
   {
     std::printf("\nevery denoiser's wavelet filter compares normals above a gradient of %.3g\n",
@@ -1760,6 +1783,14 @@ int main(int argc, char* argv[])
           if (options.MaximumHistoryAngle >= 0.0)
           {
             run[method]->SetMaximumHistoryAngle(options.MaximumHistoryAngle);
+          }
+          if (options.GrazingHistoryCosine >= 0.0)
+          {
+            run[method]->SetGrazingHistoryCosine(options.GrazingHistoryCosine);
+          }
+          if (options.GrazingHistoryFraction >= 0.0)
+          {
+            run[method]->SetGrazingHistoryFraction(options.GrazingHistoryFraction);
           }
           if (options.WaveletNormalGradientFloor >= 0.0)
           {

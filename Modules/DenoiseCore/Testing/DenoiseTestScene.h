@@ -76,6 +76,9 @@ struct SceneState
   float wallDepthJitter = 0.0f;
   float wallNormalJitter = 0.0f;
   float wallGradient = 1.0f;
+  // The normal the wall's gradient gives (facing the camera by default): tilted, the view
+  // grazes the wall as it would a surface seen edge on, though its points stay where they are.
+  glm::vec3 wallNormal{ 0.0f, 0.0f, 1.0f };
   // The first scatter point's albedo is the wall's times 1 + wallAlbedoJitter u, u uniform in
   // [-1, 1], anew every frame, as tissue of other colours along the ray gives a translucent
   // volume's; the sample's radiance scales with it (lighter tissue returns more light), so the
@@ -213,9 +216,9 @@ inline void renderEye(const SceneState& scene, int eye, int width, int height,
       radiance *= scene.irradianceScale + scene.sideLight * (0.5f + hit.x / 6.0f);
       radiance *= 1.0f + (eye == 0 ? -0.5f : 0.5f) * scene.eyeRadianceDifference;
       const glm::vec3 expectedRadiance = radiance;
-      glm::vec3 normal(0.0f, 0.0f, 1.0f);
-      float gradient = 1.0f;
       const bool onWall = hit.z == 0.0f;
+      glm::vec3 normal = onWall ? scene.wallNormal : glm::vec3(0.0f, 0.0f, 1.0f);
+      float gradient = 1.0f;
       if (onWall && (scene.wallDepthJitter > 0.0f || scene.wallNormalJitter > 0.0f))
       {
         std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);

@@ -224,6 +224,34 @@ TEST(DenoiseKernels, TemporalWeightDecreasesWithIlluminationDifference)
   EXPECT_LT(temporalGate(0.5f, 1.0f, 0.0f), temporalGate(0.0f, 1.0f, 0.0f));
 }
 
+// The history's arc narrows where the view grazes a surface: whole for a view along the
+// normal and above the cosine, in proportion to the cosine below it, never below the
+// fraction; whole where the gradient defines no surface, or with the test turned off.
+TEST(DenoiseKernels, GrazingViewNarrowsTheHistoryArc)
+{
+  const float inverseCosine = 1.0f / 0.5f;
+  EXPECT_EQ(grazingHistoryArc(1.0f, 1.0f, 0.15f, inverseCosine, 0.5f), 1.0f);
+  EXPECT_EQ(grazingHistoryArc(0.6f, 1.0f, 0.15f, inverseCosine, 0.5f), 1.0f);
+  EXPECT_NEAR(grazingHistoryArc(0.4f, 1.0f, 0.15f, inverseCosine, 0.5f), 0.8f, 1e-6f);
+  EXPECT_NEAR(grazingHistoryArc(0.3f, 1.0f, 0.15f, inverseCosine, 0.2f), 0.6f, 1e-6f);
+  EXPECT_EQ(grazingHistoryArc(0.1f, 1.0f, 0.15f, inverseCosine, 0.5f), 0.5f);
+  EXPECT_EQ(grazingHistoryArc(0.0f, 1.0f, 0.15f, inverseCosine, 0.5f), 0.5f);
+  // The normal's sign (the gradient points into or out of the tissue) does not matter.
+  EXPECT_EQ(grazingHistoryArc(-0.4f, 1.0f, 0.15f, inverseCosine, 0.5f),
+    grazingHistoryArc(0.4f, 1.0f, 0.15f, inverseCosine, 0.5f));
+  float previous = 0.0f;
+  for (int i = 0; i <= 100; ++i)
+  {
+    const float arc = grazingHistoryArc(i / 100.0f, 1.0f, 0.15f, inverseCosine, 0.25f);
+    EXPECT_GE(arc, previous) << "cos " << i / 100.0f;
+    previous = arc;
+  }
+  // Weak gradients (volume scattering, random normals) and the test turned off.
+  EXPECT_EQ(grazingHistoryArc(0.0f, 0.1f, 0.15f, inverseCosine, 0.5f), 1.0f);
+  EXPECT_EQ(
+    grazingHistoryArc(0.0f, 1.0f, std::numeric_limits<float>::infinity(), 1.0f, 0.5f), 1.0f);
+}
+
 TEST(DenoiseKernels, BilateralWeightAndDisocclusion)
 {
   EdgeStopping edges;

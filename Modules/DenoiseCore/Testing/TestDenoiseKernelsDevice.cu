@@ -74,6 +74,7 @@ struct PixelWeights
   float gate;
   float coverageSharpnessValue;
   float slack;
+  float grazingArc;
   float catmullRom[4];
   glm::vec4 demodulated;
   glm::vec4 remodulated;
@@ -107,6 +108,8 @@ HV_FUNCTION PixelWeights evaluatePixel(const PixelCase& c)
   w.gate = temporalGate(c.illuminationDifference, 20.0f, -1.25f);
   w.slack = depthSlack(c.centre.depthSpread, c.centre.gradientMagnitude, c.other.depthSpread,
     c.other.gradientMagnitude);
+  w.grazingArc = grazingHistoryArc(glm::dot(c.centre.normal, c.other.normal),
+    c.centre.gradientMagnitude, 0.15f, 1.0f / 0.5f, 0.5f);
   catmullRomWeights(c.subpixel, w.catmullRom);
   w.demodulated = demodulate(c.radiance, c.centre.albedo);
   w.remodulated = remodulate(w.demodulated, c.centre.albedo);
@@ -353,6 +356,7 @@ TEST(DenoiseKernelsDevice, PerPixelFunctionsMatchTheHost)
     gate.add(host.gate, d.gate, i);
     arithmetic.add(host.coverageSharpnessValue, d.coverageSharpnessValue, i);
     arithmetic.add(host.slack, d.slack, i);
+    arithmetic.add(host.grazingArc, d.grazingArc, i);
     for (int k = 0; k < 4; ++k)
     {
       cancelling.add(host.catmullRom[k], d.catmullRom[k], i);
@@ -389,7 +393,8 @@ TEST(DenoiseKernelsDevice, PerPixelFunctionsMatchTheHost)
     // its argument, up to 80, carries the contraction's rounding.
     { "w_v sigmoid", &gate, 2e-5f },
     // Products, sums and divisions (correctly rounded on both sides): FMA contraction alone.
-    { "demodulation, slack, coverage sharpness, D2's unpremultiplied blend", &arithmetic, 1e-5f },
+    { "demodulation, slack, grazing arc, coverage sharpness, D2's unpremultiplied blend",
+      &arithmetic, 1e-5f },
     { "catmull-rom weights, neighbourhood clamp (beyond 5e-7)", &cancelling, 1e-5f } };
   for (const Row& row : rows)
   {

@@ -1032,6 +1032,44 @@ TEST(StereoDenoiser, TurningViewLimitsTheHistoryArc)
   EXPECT_GT(unlimited, 10.0);
 }
 
+// The same turning view with the wall's normal tilted 80 degrees up from the view's axis, so
+// that at the image's centre the view grazes it (cosine 0.17): with grazingHistoryCosine 0.5 the
+// arc there narrows to grazingHistoryFraction of maximumHistoryAngle (3 of 6 degrees); a wall
+// that faces the view keeps the whole arc, and without the option the tilted one does too.
+TEST(StereoDenoiser, GrazingViewNarrowsTheHistoryArc)
+{
+  auto centreHistoryLength = [](float tilt, float grazingCosine)
+  {
+    hvtest::SceneState scene;
+    scene.squareCentre = glm::vec3(0.0f, 0.0f, -100.0f); // the wall alone
+    scene.wallNormal = glm::vec3(0.0f, std::sin(glm::radians(tilt)), std::cos(glm::radians(tilt)));
+    StereoDenoiser denoiser;
+    denoiser.parameters().grazingHistoryCosine = grazingCosine;
+    denoiser.parameters().grazingHistoryFraction = 0.5f;
+    StereoFrame frame;
+    for (std::uint32_t t = 0; t < 20; ++t)
+    {
+      scene.cameraPosition.x = scene.cameraPosition.z * std::tan(glm::radians(1.0f * t));
+      frame.render(scene, t);
+      frame.denoise(denoiser);
+    }
+    return denoiser.historyLength(0, Width / 2, Height / 2);
+  };
+  const float grazed = centreHistoryLength(80.0f, 0.5f);
+  const float facing = centreHistoryLength(0.0f, 0.5f);
+  const float grazedWithoutOption = centreHistoryLength(80.0f, 0.0f);
+  std::cout << "history length at the centre after 20 frames turning 1 degree each: the view "
+               "grazing the wall "
+            << grazed << " frames, facing it " << facing << ", grazing without the option "
+            << grazedWithoutOption << "\n";
+  // About 1.1 degrees a frame at the centre (the camera slides, it does not orbit), so about
+  // 5.4 frames for the whole arc; the grazing view keeps half of it.
+  EXPECT_GE(facing, 5.0f);
+  EXPECT_LE(facing, 6.5f);
+  EXPECT_NEAR(grazed, 0.5f * facing, 0.05f * facing);
+  EXPECT_EQ(grazedWithoutOption, facing);
+}
+
 // The wall alone (the floating square behind it, out of sight) as translucent material, whose
 // gradient magnitude is `gradient`; the test sets what is random at its scatter points.
 hvtest::SceneState translucentWall(float gradient)

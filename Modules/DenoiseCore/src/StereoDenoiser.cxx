@@ -2726,6 +2726,10 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       const float* __restrict fusedWeight = eye.fusedWeight.data() + row;
       const float* __restrict rawLuminanceOf = eye.rawLuminance.data() + row;
       const float* __restrict depthOf = eye.surface.depth.data() + row;
+      const float* __restrict normalX = eye.surface.normal[0].data() + row;
+      const float* __restrict normalY = eye.surface.normal[1].data() + row;
+      const float* __restrict normalZ = eye.surface.normal[2].data() + row;
+      const float* __restrict gradientMagnitude = eye.surface.gradientMagnitude.data() + row;
       float* __restrict variance = eye.variance[0].data() + row;
       float* __restrict coverageSharpnessOf = eye.surface.coverageSharpness.data() + row;
       // Loop invariants as locals: the stores through the planes could otherwise alias them.
@@ -2744,6 +2748,13 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
       const float historyAngleLimit = p.maximumHistoryAngle > 0.0f
         ? maximumHistoryRadians
         : std::numeric_limits<float>::infinity();
+      // The grazing view's narrower arc, off as a gradient no pixel reaches (grazingHistoryArc).
+      const float grazingSurfaceGradient = p.grazingHistoryCosine > 0.0f
+        ? p.temporal.normalGradientFloor
+        : std::numeric_limits<float>::infinity();
+      const float inverseGrazingCosine =
+        p.grazingHistoryCosine > 0.0f ? 1.0f / p.grazingHistoryCosine : 1.0f;
+      const float grazingHistoryFraction = glm::clamp(p.grazingHistoryFraction, 0.0f, 1.0f);
       const float clampWidth = p.clampWidth;
       const float coverageAgreementWidth = p.coverageAgreementWidth;
       const float surfaceJitterTolerance = p.surfaceJitterTolerance;
@@ -2873,12 +2884,16 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
               const glm::vec3 pointNow(pointX[k], pointY[k], pointZ[k]);
               const glm::vec3 previousPoint =
                 glm::vec3(toPreviousWorld * glm::vec4(pointNow, 1.0f));
+              const glm::vec3 viewDirection = glm::normalize(centre - pointNow);
               // The chord between unit directions is the angle within 1 % below 14 degrees.
-              const float turned = glm::length(
-                glm::normalize(centre - pointNow) - glm::normalize(previousCentre - previousPoint));
-              longest = turned * longest > historyAngleLimit
-                ? glm::max(historyAngleLimit / turned, 1.0f)
-                : longest;
+              const float turned =
+                glm::length(viewDirection - glm::normalize(previousCentre - previousPoint));
+              const float limit = historyAngleLimit *
+                grazingHistoryArc(
+                  glm::dot(glm::vec3(normalX[k], normalY[k], normalZ[k]), viewDirection),
+                  gradientMagnitude[k], grazingSurfaceGradient, inverseGrazingCosine,
+                  grazingHistoryFraction);
+              longest = turned * longest > limit ? glm::max(limit / turned, 1.0f) : longest;
             }
             alpha = glm::max(alpha, 1.0f / longest);
             sampleCount = currentWeight / alpha;

@@ -265,6 +265,14 @@ class DenoiserPipelineTest(unittest.TestCase):
         self.assertEqual(denoiser.GetRelitHistoryReuse(), 1.0)
         self.assertEqual(denoiser.GetRelightingRefinementFrames(), 4)
         self.assertEqual(denoiser.GetMaximumHistoryAngle(), 6.0)
+        # The grazing view's narrower arc is off by default; its settings are clamped to [0, 1]
+        # and reach the denoiser (PrintSelf).
+        self.assertEqual(denoiser.GetGrazingHistoryCosine(), 0.0)
+        self.assertEqual(denoiser.GetGrazingHistoryFraction(), 0.5)
+        denoiser.SetGrazingHistoryCosine(2.0)
+        self.assertEqual(denoiser.GetGrazingHistoryCosine(), 1.0)
+        denoiser.SetGrazingHistoryCosine(0.0)
+        self.assertIn("GrazingHistoryFraction: 0.5", str(denoiser))
         self.assertFalse(denoiser.GetBicubicHistory())
         # A new transfer function drops the history unless asked to relight it (the issue's
         # behaviour by default).

@@ -317,6 +317,24 @@ HV_FUNCTION float temporalGate(float illuminationDifference, float steepness, fl
   return 1.0f / (1.0f + glm::exp(exponent));
 }
 
+// The share of the history's arc of viewing directions (maximumHistoryAngle) that a pixel keeps
+// where the view grazes its surface. Light returned from under the surface of translucent
+// tissue has crossed an optical depth that grows as 1 / cos(theta) with the viewing angle theta
+// from the normal, and so changes fastest with the view where cos(theta) is small; there a
+// turning view's history lags most (the head's edge under an orbit, Documentation/Denoising.md,
+// "A narrower arc where the view grazes the surface"). The arc shrinks in proportion to
+// |cos(theta)| below 1 / inverseGrazingCosine, to no less than minimumFraction of it, where
+// the gradient magnitude reaches surfaceGradient (the normal describes a surface); elsewhere
+// the whole arc is kept. surfaceGradient = infinity keeps it everywhere: the caller's way to
+// turn this off with the same arithmetic.
+HV_FUNCTION float grazingHistoryArc(float viewCosine, float gradientMagnitude,
+  float surfaceGradient, float inverseGrazingCosine, float minimumFraction)
+{
+  const float shrunk =
+    glm::clamp(glm::abs(viewCosine) * inverseGrazingCosine, minimumFraction, 1.0f);
+  return gradientMagnitude >= surfaceGradient ? shrunk : 1.0f;
+}
+
 // The paper's D2 weight: lambda = alpha (beta - exp(-|gamma_L - gamma_R|)), gamma the albedo.
 // Equal albedo gives alpha (beta - 1) (0.5 with the defaults: both eyes count equally), very
 // different albedo alpha beta (1: the eye keeps its own value). Clamped to [0, 1] so that

@@ -178,6 +178,12 @@ struct DenoiserParameters
   // View-dependent light (the phase function, a specular lobe) changes as the view turns, and
   // a history averaged over a wider arc lags behind it.
   float maximumHistoryAngle = 6.0f;
+  // ... and over a narrower arc where the view grazes the surface (grazingHistoryArc): below a
+  // cosine of grazingHistoryCosine between the viewing direction and the normal, where the
+  // gradient magnitude reaches temporal.normalGradientFloor, the arc shrinks in proportion to the
+  // cosine, to no less than grazingHistoryFraction of it. 0 turns it off.
+  float grazingHistoryCosine = 0.0f;
+  float grazingHistoryFraction = 0.5f;
   // > 0: a plain exponential average with this weight for the current frame instead (the
   // "temporal-only" baseline of the evaluation); w_v is then not used.
   float exponentialAverageAlpha = 0.0f;
