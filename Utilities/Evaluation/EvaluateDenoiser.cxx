@@ -1477,12 +1477,15 @@ int main(int argc, char* argv[])
   {
     std::printf("\nevery denoiser's history spans any arc of viewing directions\n");
   }
-  if (options.GrazingHistoryCosine > 0.0 || options.GrazingHistoryFraction >= 0.0)
+  // The fraction alone changes nothing: the default cosine, 0, keeps the whole arc.
+  if (options.GrazingHistoryCosine > 0.0)
   {
+    vtkNew<vtkStereoSpatioTemporalDenoiser> defaults;
     std::printf("\nevery denoiser's history arc narrows where the view grazes the surface: "
                 "below a cosine of %.3g, to no less than %.3g of it\n",
-      options.GrazingHistoryCosine >= 0.0 ? options.GrazingHistoryCosine : 0.0,
-      options.GrazingHistoryFraction >= 0.0 ? options.GrazingHistoryFraction : 0.5);
+      options.GrazingHistoryCosine,
+      options.GrazingHistoryFraction >= 0.0 ? options.GrazingHistoryFraction
+                                            : defaults->GetGrazingHistoryFraction());
   }
   if (options.WaveletNormalGradientFloor >= 0.0)
   {
