@@ -78,6 +78,7 @@ struct SceneState
   float wallGradient = 1.0f;
   // The normal the wall's gradient gives (facing the camera by default): tilted, the view
   // grazes the wall as it would a surface seen edge on, though its points stay where they are.
+  // wallNormalJitter, when set, tilts the normal around +z instead and ignores this.
   glm::vec3 wallNormal{ 0.0f, 0.0f, 1.0f };
   // The first scatter point's albedo is the wall's times 1 + wallAlbedoJitter u, u uniform in
   // [-1, 1], anew every frame, as tissue of other colours along the ray gives a translucent
