@@ -203,7 +203,8 @@ under the lamp, or with the new transfer function, all along.
   --grazing-history-cosine C
                          below this cosine between the viewing direction and the surface normal
                          the history's arc narrows in proportion to the cosine, in every
-                         denoiser, 0 to 1; 0: the whole arc everywhere [the denoiser's default, 0]
+                         denoiser, 0 to 1; 0: the whole arc everywhere [the denoiser's default,
+                         0.5]
   --grazing-history-fraction F
                          the share of the arc kept where the view grazes the surface, 0 to 1
                          [the denoiser's default, 0.5]; with --grazing-history-cosine
@@ -1477,13 +1478,18 @@ int main(int argc, char* argv[])
   {
     std::printf("\nevery denoiser's history spans any arc of viewing directions\n");
   }
-  // The fraction alone changes nothing: the default cosine, 0, keeps the whole arc.
-  if (options.GrazingHistoryCosine > 0.0)
+  if (options.GrazingHistoryCosine == 0.0)
+  {
+    std::printf("\nevery denoiser's history keeps its whole arc where the view grazes the "
+                "surface\n");
+  }
+  else if (options.GrazingHistoryCosine > 0.0 || options.GrazingHistoryFraction >= 0.0)
   {
     vtkNew<vtkStereoSpatioTemporalDenoiser> defaults;
     std::printf("\nevery denoiser's history arc narrows where the view grazes the surface: "
                 "below a cosine of %.3g, to no less than %.3g of it\n",
-      options.GrazingHistoryCosine,
+      options.GrazingHistoryCosine > 0.0 ? options.GrazingHistoryCosine
+                                         : defaults->GetGrazingHistoryCosine(),
       options.GrazingHistoryFraction >= 0.0 ? options.GrazingHistoryFraction
                                             : defaults->GetGrazingHistoryFraction());
   }

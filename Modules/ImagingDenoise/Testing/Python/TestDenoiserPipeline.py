@@ -265,14 +265,16 @@ class DenoiserPipelineTest(unittest.TestCase):
         self.assertEqual(denoiser.GetRelitHistoryReuse(), 1.0)
         self.assertEqual(denoiser.GetRelightingRefinementFrames(), 4)
         self.assertEqual(denoiser.GetMaximumHistoryAngle(), 6.0)
-        # The grazing view's narrower arc is off by default; its settings are clamped to [0, 1]
-        # and reach the denoiser (PrintSelf).
-        self.assertEqual(denoiser.GetGrazingHistoryCosine(), 0.0)
+        # The grazing view's narrower arc is on by default, below a cosine of 0.5; its settings
+        # are clamped to [0, 1] and reach the denoiser (PrintSelf).
+        self.assertEqual(denoiser.GetGrazingHistoryCosine(), 0.5)
         self.assertEqual(denoiser.GetGrazingHistoryFraction(), 0.5)
         denoiser.SetGrazingHistoryCosine(2.0)
         self.assertEqual(denoiser.GetGrazingHistoryCosine(), 1.0)
         denoiser.SetGrazingHistoryCosine(0.0)
+        self.assertIn("GrazingHistoryCosine: 0\n", str(denoiser))
         self.assertIn("GrazingHistoryFraction: 0.5", str(denoiser))
+        denoiser.SetGrazingHistoryCosine(0.5)
         self.assertFalse(denoiser.GetBicubicHistory())
         # A new transfer function drops the history unless asked to relight it (the issue's
         # behaviour by default).

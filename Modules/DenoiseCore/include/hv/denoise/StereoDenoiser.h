@@ -181,8 +181,10 @@ struct DenoiserParameters
   // ... and over a narrower arc where the view grazes the surface (grazingHistoryArc): below a
   // cosine of grazingHistoryCosine between the viewing direction and the normal, where the
   // gradient magnitude reaches temporal.normalGradientFloor, the arc shrinks in proportion to the
-  // cosine, to no less than grazingHistoryFraction of it. 0 turns it off.
-  float grazingHistoryCosine = 0.0f;
+  // cosine, to no less than grazingHistoryFraction of it (3 of 6 degrees at grazing). 0 turns
+  // it off. Light returned from under a translucent surface crosses an optical depth of
+  // 1 / cos(theta), which changes fastest with the view where theta nears 90 degrees.
+  float grazingHistoryCosine = 0.5f;
   float grazingHistoryFraction = 0.5f;
   // > 0: a plain exponential average with this weight for the current frame instead (the
   // "temporal-only" baseline of the evaluation); w_v is then not used.
