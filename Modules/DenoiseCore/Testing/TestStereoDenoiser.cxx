@@ -1033,19 +1033,24 @@ TEST(StereoDenoiser, TurningViewLimitsTheHistoryArc)
 }
 
 // The same turning view with the wall's normal tilted 80 degrees up from the view's axis, so
-// that at the image's centre the view grazes it (cosine 0.17): with grazingHistoryCosine 0.5 the
-// arc there narrows to grazingHistoryFraction of maximumHistoryAngle (3 of 6 degrees); a wall
-// that faces the view keeps the whole arc, and without the option the tilted one does too.
+// that at the image's centre the view grazes it (cosine 0.17): with grazingHistoryCosine 0.5 (the
+// default) the arc there narrows to grazingHistoryFraction of maximumHistoryAngle (3 of 6
+// degrees); a wall that faces the view keeps the whole arc, and with the option off the tilted
+// one does too.
 TEST(StereoDenoiser, GrazingViewNarrowsTheHistoryArc)
 {
+  // A negative cosine keeps the defaults.
   auto centreHistoryLength = [](float tilt, float grazingCosine)
   {
     hvtest::SceneState scene;
     scene.squareCentre = glm::vec3(0.0f, 0.0f, -100.0f); // the wall alone
     scene.wallNormal = glm::vec3(0.0f, std::sin(glm::radians(tilt)), std::cos(glm::radians(tilt)));
     StereoDenoiser denoiser;
-    denoiser.parameters().grazingHistoryCosine = grazingCosine;
-    denoiser.parameters().grazingHistoryFraction = 0.5f;
+    if (grazingCosine >= 0.0f)
+    {
+      denoiser.parameters().grazingHistoryCosine = grazingCosine;
+      denoiser.parameters().grazingHistoryFraction = 0.5f;
+    }
     StereoFrame frame;
     for (std::uint32_t t = 0; t < 20; ++t)
     {
@@ -1058,6 +1063,7 @@ TEST(StereoDenoiser, GrazingViewNarrowsTheHistoryArc)
   const float grazed = centreHistoryLength(80.0f, 0.5f);
   const float facing = centreHistoryLength(0.0f, 0.5f);
   const float grazedWithoutOption = centreHistoryLength(80.0f, 0.0f);
+  const float grazedWithDefaults = centreHistoryLength(80.0f, -1.0f);
   std::cout << "history length at the centre after 20 frames turning 1 degree each: the view "
                "grazing the wall "
             << grazed << " frames, facing it " << facing << ", grazing without the option "
@@ -1068,6 +1074,7 @@ TEST(StereoDenoiser, GrazingViewNarrowsTheHistoryArc)
   EXPECT_LE(facing, 6.5f);
   EXPECT_NEAR(grazed, 0.5f * facing, 0.05f * facing);
   EXPECT_EQ(grazedWithoutOption, facing);
+  EXPECT_EQ(grazedWithDefaults, grazed);
 }
 
 // The wall alone (the floating square behind it, out of sight) as translucent material, whose
