@@ -207,7 +207,7 @@ under the lamp, or with the new transfer function, all along.
                          0.5]
   --grazing-history-fraction F
                          the share of the arc kept where the view grazes the surface, 0 to 1
-                         [the denoiser's default, 0.5]; with --grazing-history-cosine
+                         [the denoiser's default, 0.5]; no effect with --grazing-history-cosine 0
   --subpixel-samples random|stratified
                          where every render's samples enter their pixels (raw frames,
                          references, the raw-spp curve): independent uniform positions, or each

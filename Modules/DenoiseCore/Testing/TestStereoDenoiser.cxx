@@ -1066,8 +1066,9 @@ TEST(StereoDenoiser, GrazingViewNarrowsTheHistoryArc)
   const float grazedWithDefaults = centreHistoryLength(80.0f, -1.0f);
   std::cout << "history length at the centre after 20 frames turning 1 degree each: the view "
                "grazing the wall "
-            << grazed << " frames, facing it " << facing << ", grazing without the option "
-            << grazedWithoutOption << "\n";
+            << grazed << " frames, facing it " << facing << ", grazing with the arc off "
+            << grazedWithoutOption << ", grazing with the default parameters " << grazedWithDefaults
+            << "\n";
   // About 1.1 degrees a frame at the centre (the camera slides, it does not orbit), so about
   // 5.4 frames for the whole arc; the grazing view keeps half of it.
   EXPECT_GE(facing, 5.0f);
