@@ -1338,6 +1338,7 @@ int main(int argc, char* argv[])
   // showProgress: a dot on standard error for every sixteenth of the passes, for the long
   // phases that print nothing else meanwhile (the static reference takes 20 minutes at
   // 1440x936 on the 2-core machine). Returns the reference's cache key (0 without a cache).
+  int referencesRendered = 0; // those not found in the cache; frameDone's estimate counts them
   auto renderReference = [&](vtkImageData* environment, vtkMatrix4x4* views[2],
                            vtkMatrix4x4* projections[2], int samples, Reference& out,
                            bool showProgress = false) -> std::uint64_t
@@ -1356,6 +1357,7 @@ int main(int argc, char* argv[])
       toReference(converged, out);
       return key;
     }
+    ++referencesRendered;
     reference->SetEnvironmentMapData(environment);
     reference->ResetAccumulation();
     const std::size_t pixels = static_cast<std::size_t>(options.Width) * options.Height;
@@ -1712,21 +1714,54 @@ int main(int argc, char* argv[])
     reference->SetFrameIndex(0);
     // A dot a frame; where frames take long (a 1024-spp reference is about 5 minutes at
     // 1440x936 on the 2-core machine), every fifth frame also says how far the sequence is and
-    // how long the rest should take at the mean pace so far.
+    // how long the rest should take. A frame whose reference comes from the cache takes seconds
+    // instead (as do the frames of the light switch's later runs, which reuse the first run's
+    // references), so the mean pace of all frames would promise far too little time to a run
+    // that resumes a partly cached sequence. The first run's remaining frames are estimated at
+    // the pace of the frames that rendered their reference, as the cache fills in frame order
+    // and a miss is followed by misses; until one has, the estimate holds only if the rest is
+    // cached too, and says so.
     const int sequenceFrames = runs * options.Frames;
     int framesDone = 0;
+    int renderingFrames = 0;
+    double renderingSeconds = 0.0;
+    int quickFrames = 0;
+    double quickSeconds = 0.0;
+    int referencesRenderedBefore = referencesRendered;
+    auto frameStart = sequenceStart;
     auto frameDone = [&]()
     {
       ++framesDone;
       std::cerr << ".";
-      const double seconds =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - sequenceStart).count();
+      const auto now = std::chrono::steady_clock::now();
+      const double frameSeconds = std::chrono::duration<double>(now - frameStart).count();
+      if (referencesRendered > referencesRenderedBefore)
+      {
+        ++renderingFrames;
+        renderingSeconds += frameSeconds;
+      }
+      else
+      {
+        ++quickFrames;
+        quickSeconds += frameSeconds;
+      }
+      referencesRenderedBefore = referencesRendered;
+      frameStart = now;
+      const double seconds = std::chrono::duration<double>(now - sequenceStart).count();
       if (framesDone % 5 == 0 && framesDone < sequenceFrames && seconds > 120.0)
       {
-        const double minutesLeft = seconds / framesDone * (sequenceFrames - framesDone) / 60.0;
-        char text[96];
-        std::snprintf(text, sizeof(text), " [%d/%d frames, %.0f min, about %.0f min left] ",
-          framesDone, sequenceFrames, seconds / 60.0, minutesLeft);
+        const double renderingPace =
+          renderingFrames > 0 ? renderingSeconds / renderingFrames : quickSeconds / quickFrames;
+        const double quickPace = quickFrames > 0 ? quickSeconds / quickFrames : renderingPace;
+        const int firstRunFramesLeft = std::max(0, options.Frames - framesDone);
+        const double minutesLeft =
+          (firstRunFramesLeft * renderingPace +
+            (sequenceFrames - framesDone - firstRunFramesLeft) * quickPace) /
+          60.0;
+        char text[128];
+        std::snprintf(text, sizeof(text), " [%d/%d frames, %.0f min, about %.0f min left%s] ",
+          framesDone, sequenceFrames, seconds / 60.0, minutesLeft,
+          renderingFrames > 0 ? "" : " if the rest is cached too");
         std::cerr << text;
       }
       std::cerr << std::flush;
