@@ -1719,8 +1719,8 @@ int main(int argc, char* argv[])
     // references), so the mean pace of all frames would promise far too little time to a run
     // that resumes a partly cached sequence. The first run's remaining frames are estimated at
     // the pace of the frames that rendered their reference, as the cache fills in frame order
-    // and a miss is followed by misses; until one has, the estimate holds only if the rest is
-    // cached too, and says so.
+    // and a miss is followed by misses; until one has, the estimate holds only if the first
+    // run's remaining references are cached too, and says so.
     const int sequenceFrames = runs * options.Frames;
     int framesDone = 0;
     int renderingFrames = 0;
@@ -1761,7 +1761,7 @@ int main(int argc, char* argv[])
         char text[128];
         std::snprintf(text, sizeof(text), " [%d/%d frames, %.0f min, about %.0f min left%s] ",
           framesDone, sequenceFrames, seconds / 60.0, minutesLeft,
-          renderingFrames > 0 ? "" : " if the rest is cached too");
+          renderingFrames > 0 || firstRunFramesLeft == 0 ? "" : " if the rest is cached too");
         std::cerr << text;
       }
       std::cerr << std::flush;
