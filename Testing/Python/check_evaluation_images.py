@@ -7,6 +7,10 @@ checks the strip (the five methods and the reference side by side) and the map: 
 per-pixel noise discrepancy on one colour scale, beside the reference. The two maps must mark
 the same pixels as paired, and the full denoiser's must be darker there on the mean: D2 averages
 the eyes' noise, which the inferno colour map shows as lower luminance.
+
+Then Utilities/Scripts/denoise-figures.py, which makes Denoising.md's pictures from these files,
+on them: its shrink must average each block, and its close-up must show the strip's panels at
+the frame's own pixels.
 """
 
 import pathlib
@@ -70,5 +74,39 @@ luminance = [(panel @ [0.2126, 0.7152, 0.0722])[paired[0]].mean() for panel in m
 expect(f"the full denoiser's map is darker than D1's: {luminance[1]:.1f} < {luminance[0]:.1f}",
        luminance[1] < luminance[0])
 expect("the reference shows the volume", reference.max() > 0)
+
+figures = pathlib.Path(__file__).resolve().parents[2] / "Utilities" / "Scripts" / "denoise-figures.py"
+
+
+def run_figures(*arguments):
+    run = subprocess.run([sys.executable, str(figures), *arguments], capture_output=True, text=True)
+    expect(f"denoise-figures.py {arguments[0]} ran: {run.stderr.strip()}", run.returncode == 0)
+    return run.stdout
+
+
+# A factor of 4: the map is magnified twice, so 2x2 blocks would be uniform and a shrink that
+# only subsampled would pass.
+run_figures("shrink", str(map_path), str(workdir / "map-shrunk.png"), "--factor", "4")
+shrunk = read_png(workdir / "map-shrunk.png")
+rows, columns = figure.shape[0] // 4, figure.shape[1] // 4
+blocks = figure[:4 * rows, :4 * columns].reshape(rows, 4, columns, 4, 3).mean(axis=(1, 3))
+expect(f"the shrunk map is {columns}x{rows}: {shrunk.shape[1]}x{shrunk.shape[0]}",
+       shrunk.shape[:2] == (rows, columns))
+if shrunk.shape[:2] == (rows, columns):
+    expect("each of its pixels is its 4x4 block's mean, rounded",
+           abs(shrunk - blocks).max() <= 0.5)
+
+table = run_figures("closeup", str(strip_path), str(workdir / "closeup.png"),
+                    "--box", "0", "0", str(width), str(height), "--panels", "4,5")
+closeup = read_png(workdir / "closeup.png")
+expect(f"the close-up is two {width}x{height} panels and a separator: {closeup.shape[:2]}",
+       closeup.shape[:2] == (height, 2 * width + 4))
+if closeup.shape[:2] == (height, 2 * width + 4):
+    own_pixels = strip[::2, ::2]
+    expect("its panels are the full denoiser's and the reference's at the frame's own pixels",
+           (closeup[:, :width] == own_pixels[:, 4 * width:5 * width]).all()
+           and (closeup[:, width + 4:] == own_pixels[:, 5 * width:]).all())
+expect(f"it counts the dark spots of four panels:\n{table}",
+       all(f"| {name} |" in table for name in ("spatial only", "D1", "full", "reference")))
 
 checks.finish("evaluation images: all checks passed")
