@@ -454,11 +454,13 @@ int vtkStereoSpatioTemporalDenoiser::RequestData(
   p.sigmoidCentre = static_cast<float>(this->SigmoidCenter);
   p.maximumHistoryLength = this->MaximumHistoryLength;
   p.relightingRadius = static_cast<float>(this->RelightingRadius);
+  p.relightingRunHeightFraction = static_cast<float>(this->RelightingRunHeightFraction);
   p.relitHistoryReuse = static_cast<float>(this->RelitHistoryReuse);
   p.relightFromPreviousLighting = this->RelightFromPreviousLighting;
   p.previousLightingRadius = static_cast<float>(this->PreviousLightingRadius);
   p.previousLightingWeight = static_cast<float>(this->PreviousLightingWeight);
   p.relitHistoryRejection = static_cast<float>(this->RelitHistoryRejection);
+  p.relitHistoryRejectionHistoryVariance = this->RelitHistoryRejectionHistoryVariance;
   p.classificationScalarTolerance = static_cast<float>(this->ClassificationScalarTolerance);
   p.classificationCoverageWidth = static_cast<float>(this->ClassificationCoverageWidth);
   p.relightingRefinementFrames = this->RelightingRefinementFrames;
@@ -578,6 +580,7 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "SigmoidCenter: " << this->SigmoidCenter << "\n";
   os << indent << "MaximumHistoryLength: " << this->MaximumHistoryLength << "\n";
   os << indent << "RelightingRadius: " << this->RelightingRadius << "\n";
+  os << indent << "RelightingRunHeightFraction: " << this->RelightingRunHeightFraction << "\n";
   os << indent << "RelitHistoryReuse: " << this->RelitHistoryReuse << "\n";
   os << indent
      << "RelightFromPreviousLighting: " << (this->RelightFromPreviousLighting ? "On" : "Off")
@@ -585,6 +588,8 @@ void vtkStereoSpatioTemporalDenoiser::PrintSelf(ostream& os, vtkIndent indent)
   os << indent << "PreviousLightingRadius: " << this->PreviousLightingRadius << "\n";
   os << indent << "PreviousLightingWeight: " << this->PreviousLightingWeight << "\n";
   os << indent << "RelitHistoryRejection: " << this->RelitHistoryRejection << "\n";
+  os << indent << "RelitHistoryRejectionHistoryVariance: "
+     << (this->RelitHistoryRejectionHistoryVariance ? "On" : "Off") << "\n";
   os << indent << "ClassificationScalarTolerance: " << this->ClassificationScalarTolerance << "\n";
   os << indent << "ClassificationCoverageWidth: " << this->ClassificationCoverageWidth << "\n";
   os << indent << "RelightingRefinementFrames: " << this->RelightingRefinementFrames << "\n";

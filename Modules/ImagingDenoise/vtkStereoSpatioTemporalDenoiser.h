@@ -208,7 +208,12 @@ public:
    * Relighting of the history when T says the light changed (the sigmoid below 0.99): the
    * history's colour is scaled by the local ratio of this frame's incident light to its own,
    * two Gaussian-weighted means of RelightingRadius pixels (default 4; 0 switches relighting
-   * off and the history is only down-weighted by delta, as in the paper). The relit history
+   * off and the history is only down-weighted by delta, as in the paper). On a frame whose
+   * light changed after a frame whose light changed too, as under a turning environment, the
+   * ratio is applied whole every frame and its noise is not averaged over frames; there the
+   * Gaussian is at least RelightingRunHeightFraction of the image's height (default 1/60: 15.6
+   * pixels at the headset's 1440x936, 7.8 at 720x468, RelightingRadius below 240 pixels; 0:
+   * RelightingRadius on every frame). The relit history
    * then counts as delta + (1 - delta) RelitHistoryReuse of its length (default 1: kept whole;
    * a sharp shadow that moved is left to RelitHistoryRejection). On the head MRI, after a lamp
    * is switched on, the PSNR is back within 1 dB of the frame before after 2 frames on the
@@ -217,6 +222,8 @@ public:
    */
   vtkSetClampMacro(RelightingRadius, double, 0.0, 64.0);
   vtkGetMacro(RelightingRadius, double);
+  vtkSetClampMacro(RelightingRunHeightFraction, double, 0.0, 0.1);
+  vtkGetMacro(RelightingRunHeightFraction, double);
   vtkSetClampMacro(RelitHistoryReuse, double, 0.0, 1.0);
   vtkGetMacro(RelitHistoryReuse, double);
   ///@}
@@ -254,6 +261,19 @@ public:
    */
   vtkSetClampMacro(RelitHistoryRejection, double, 0.0, 1e6);
   vtkGetMacro(RelitHistoryRejection, double);
+  ///@}
+
+  ///@{
+  /**
+   * The test above takes as the frame's variance at least the one the pixel's history has
+   * measured over its frames (its temporal luminance moments, relit), not only the variance of
+   * the frame's own few pixels around it (default on). Those few 2-spp samples often miss the
+   * rare bright paths, and the test then rejected histories that were right, leaving dark
+   * specks where the light changes every frame. Off: the frame's own variance alone.
+   */
+  vtkSetMacro(RelitHistoryRejectionHistoryVariance, bool);
+  vtkGetMacro(RelitHistoryRejectionHistoryVariance, bool);
+  vtkBooleanMacro(RelitHistoryRejectionHistoryVariance, bool);
   ///@}
 
   ///@{
@@ -626,11 +646,13 @@ protected:
   double SigmoidSteepness = 40.0;
   double SigmoidCenter = -1.15;
   double RelightingRadius = 4.0;
+  double RelightingRunHeightFraction = 1.0 / 60.0;
   double RelitHistoryReuse = 1.0;
   bool RelightFromPreviousLighting = true;
   double PreviousLightingRadius = 4.0;
   double PreviousLightingWeight = 1.0;
   double RelitHistoryRejection = 3.0;
+  bool RelitHistoryRejectionHistoryVariance = true;
   double ClassificationScalarTolerance = 0.1;
   double ClassificationCoverageWidth = 1.5;
   int RelightingRefinementFrames = 4;

@@ -9,8 +9,9 @@ the same pixels as paired, and the full denoiser's must be darker there on the m
 the eyes' noise, which the inferno colour map shows as lower luminance.
 
 Then Utilities/Scripts/denoise-figures.py, which makes Denoising.md's pictures from these files,
-on them: its shrink must average each block, and its close-up must show the strip's panels at
-the frame's own pixels.
+on them: its shrink must average each block, its close-up must show the strip's panels at
+the frame's own pixels, and its error table must put the reference at 0 and the full denoiser
+below the raw frame.
 """
 
 import pathlib
@@ -108,5 +109,18 @@ if closeup.shape[:2] == (height, 2 * width + 4):
            and (closeup[:, width + 4:] == own_pixels[:, 5 * width:]).all())
 expect(f"it counts the dark spots of four panels:\n{table}",
        all(f"| {name} |" in table for name in ("spatial only", "D1", "full", "reference")))
+
+errors_table = run_figures("errors", str(strip_path))
+rows = {line.split("|")[1].strip(): [float(v) for v in line.split("|")[2:5]]
+        for line in errors_table.splitlines()
+        if line.startswith("| ") and not line.startswith("| panel")}
+expect(f"its error table has a row for each panel:\n{errors_table}",
+       set(rows) == {"raw 2 spp", "spatial only", "temporal only", "D1", "full", "reference"})
+if "reference" in rows and "full" in rows:
+    expect("the reference's error is 0", rows["reference"][:2] == [0.0, 0.0])
+    expect("the full denoiser's error is below raw 2 spp's",
+           0 < rows["full"][0] < rows["raw 2 spp"][0])
+    expect("smoothing keeps less of the raw frame's error than there is (its noise is per pixel)",
+           rows["raw 2 spp"][1] < rows["raw 2 spp"][0])
 
 checks.finish("evaluation images: all checks passed")

@@ -20,6 +20,7 @@
 
 #include "hv/denoise/DenoiseKernels.h"
 #include "hv/denoise/ImageQuality.h"
+#include "hv/denoise/StereoDenoiser.h"
 
 #include "ReferenceCache.h"
 
@@ -81,9 +82,14 @@ struct Options
   double HistoryNormalGradientFloor = -1.0; // the denoiser's default
   int WaveletDepthFromHistory = -1;         // the denoiser's default
   int RemodulateByHistoryAlbedo = -1;       // the denoiser's default
+  double HistoryAlbedoGradients[2] = { -1.0, -1.0 }; // the denoiser's default
   int StereoAlbedoFromHistory = -1;         // the denoiser's default
   int RenderPreviousLighting = 1;
   double PreviousLightingRadius = -1.0;      // the denoiser's default
+  double RelightingRadius = -1.0;            // the denoiser's default
+  double RelightingRunHeightFraction = -1.0; // the denoiser's default
+  double RelitHistoryRejection = -1.0;       // the denoiser's default
+  int RelitHistoryRejectionHistoryVariance = -1; // the denoiser's default
   double WaveletAlbedoGradientWeight = -1.0; // the denoiser's default
   double StereoAgreementWidth = -1.0;        // the denoiser's default
   double MaximumHistoryAngle = -1.0;         // the denoiser's default
@@ -174,6 +180,10 @@ under the lamp, or with the new transfer function, all along.
                          where the gradient magnitude is weak (the frame's own from 0.3 on);
                          0: by the frame's own everywhere, in every denoiser [the denoiser's
                          default, 1]
+  --history-albedo-gradients LOW,HIGH
+                         the gradient magnitudes between which re-modulation goes from the
+                         history's mean albedo to the frame's own, 0 to 2 (above 1: the mean
+                         everywhere), in every denoiser [the denoiser's default, 0.15,0.3]
   --stereo-albedo-from-history 0|1
                          1: gamma of D2's lambda is each eye's mean first scatter albedo over
                          its history; 0: the frame's own, in every denoiser [the denoiser's
@@ -187,6 +197,21 @@ under the lamp, or with the new transfer function, all along.
   --previous-lighting-radius X
                          that ratio's Gaussian in pixels, 0 to 64, in every denoiser [the
                          denoiser's default, 4]
+  --relighting-radius X  the Gaussian in pixels of the ratio by which a changed light relights
+                         the history (the frame's to the history's), 0.5 to 64, in every
+                         denoiser [the denoiser's default, 4]
+  --relighting-run-height-fraction F
+                         on a frame whose light changed after one whose light changed too, the
+                         Gaussian is at least F of the image's height, 0 to 0.1; 0: the radius
+                         above on every frame [the denoiser's default, 1/60]
+  --relit-history-rejection K
+                         a relit pixel starts its history over where the relit history and the
+                         frame differ at the scale of a pixel by more than K standard errors, 0
+                         to 1000000, in every denoiser [the denoiser's default, 3]
+  --relit-history-rejection-history-variance 0|1
+                         1: that test's variance of the frame is at least the one the pixel's
+                         history measured over its frames; 0: the frame's own over the test's
+                         5x5 pixels alone, in every denoiser [the denoiser's default, 1]
   --wavelet-albedo-gradient-weight W
                          the wavelet filter's albedo edge-stopping is scaled by 1 - W + W
                          max(g, g'), g and g' the gradient magnitudes, in every denoiser, 0 to
@@ -1168,12 +1193,45 @@ int main(int argc, char* argv[])
     else if (arg == "--remodulate-by-history-albedo")
       options.RemodulateByHistoryAlbedo =
         holovolume::IntegerOption(program, "--remodulate-by-history-albedo", value(), 0, 1);
+    else if (arg == "--history-albedo-gradients")
+    {
+      const std::string bounds = value();
+      const std::size_t comma = bounds.find(',');
+      if (comma == std::string::npos)
+      {
+        std::cerr << program << ": --history-albedo-gradients takes LOW,HIGH (e.g. 0.15,0.3), "
+                  << "not '" << bounds << "'.\n";
+        return 2;
+      }
+      options.HistoryAlbedoGradients[0] = holovolume::NumberOption(
+        program, "--history-albedo-gradients", bounds.substr(0, comma), 0.0, 2.0);
+      options.HistoryAlbedoGradients[1] = holovolume::NumberOption(
+        program, "--history-albedo-gradients", bounds.substr(comma + 1), 0.0, 2.0);
+      if (options.HistoryAlbedoGradients[1] < options.HistoryAlbedoGradients[0])
+      {
+        std::cerr << program << ": --history-albedo-gradients takes LOW,HIGH with LOW <= HIGH, "
+                  << "not '" << bounds << "'.\n";
+        return 2;
+      }
+    }
     else if (arg == "--render-previous-lighting")
       options.RenderPreviousLighting =
         holovolume::IntegerOption(program, "--render-previous-lighting", value(), 0, 1);
     else if (arg == "--previous-lighting-radius")
       options.PreviousLightingRadius =
         holovolume::NumberOption(program, "--previous-lighting-radius", value(), 0.0, 64.0);
+    else if (arg == "--relighting-radius")
+      options.RelightingRadius =
+        holovolume::NumberOption(program, "--relighting-radius", value(), 0.5, 64.0);
+    else if (arg == "--relighting-run-height-fraction")
+      options.RelightingRunHeightFraction =
+        holovolume::NumberOption(program, "--relighting-run-height-fraction", value(), 0.0, 0.1);
+    else if (arg == "--relit-history-rejection")
+      options.RelitHistoryRejection =
+        holovolume::NumberOption(program, "--relit-history-rejection", value(), 0.0, 1e6);
+    else if (arg == "--relit-history-rejection-history-variance")
+      options.RelitHistoryRejectionHistoryVariance = holovolume::IntegerOption(
+        program, "--relit-history-rejection-history-variance", value(), 0, 1);
     else if (arg == "--stereo-albedo-from-history")
       options.StereoAlbedoFromHistory =
         holovolume::IntegerOption(program, "--stereo-albedo-from-history", value(), 0, 1);
@@ -1532,6 +1590,12 @@ int main(int argc, char* argv[])
     std::printf("\nevery denoiser re-modulates by %s first scatter albedo\n",
       options.RemodulateByHistoryAlbedo ? "the history's mean" : "the frame's own");
   }
+  if (options.HistoryAlbedoGradients[0] >= 0.0)
+  {
+    std::printf("\nevery denoiser re-modulates by the history's mean albedo below a gradient "
+                "magnitude of %g and by the frame's own from %g on\n",
+      options.HistoryAlbedoGradients[0], options.HistoryAlbedoGradients[1]);
+  }
   std::printf("\nthe raw frames %s\n",
     options.RenderPreviousLighting
       ? "shade their paths also under the previous frame's environment where it changed, and "
@@ -1539,6 +1603,32 @@ int main(int argc, char* argv[])
         "two"
       : "are shaded under their own environment only; the denoisers relight their history by "
         "the ratio of the frame to it");
+  if (options.RelightingRadius >= 0.0 || options.RelightingRunHeightFraction >= 0.0)
+  {
+    hv::denoise::DenoiserParameters relighting;
+    relighting.relightingRadius = options.RelightingRadius >= 0.0
+      ? static_cast<float>(options.RelightingRadius)
+      : relighting.relightingRadius;
+    relighting.relightingRunHeightFraction = options.RelightingRunHeightFraction >= 0.0
+      ? static_cast<float>(options.RelightingRunHeightFraction)
+      : relighting.relightingRunHeightFraction;
+    std::printf("\nevery denoiser's ratio of the frame to the history takes a Gaussian of %g "
+                "pixels, and %g on a frame that continues a run of changes of light\n",
+      hv::denoise::relightingRadiusFor(relighting, options.Height, false),
+      hv::denoise::relightingRadiusFor(relighting, options.Height, true));
+  }
+  if (options.RelitHistoryRejection >= 0.0)
+  {
+    std::printf("\nevery denoiser restarts a relit pixel's history where it differs from the "
+                "frame by more than %g standard errors\n",
+      options.RelitHistoryRejection);
+  }
+  if (options.RelitHistoryRejectionHistoryVariance >= 0)
+  {
+    std::printf("\nevery denoiser's test of the relit history takes %s\n",
+      options.RelitHistoryRejectionHistoryVariance ? "at least the variance the history measured"
+                                                   : "the frame's own variance over 5x5 pixels");
+  }
   if (options.PreviousLightingRadius >= 0.0)
   {
     std::printf("\nevery denoiser's ratio to the previous light takes a Gaussian of %g pixels\n",
@@ -1860,9 +1950,30 @@ int main(int argc, char* argv[])
           {
             run[method]->SetRemodulateByHistoryAlbedo(options.RemodulateByHistoryAlbedo != 0);
           }
+          if (options.HistoryAlbedoGradients[0] >= 0.0)
+          {
+            run[method]->SetHistoryAlbedoGradients(options.HistoryAlbedoGradients);
+          }
           if (options.StereoAlbedoFromHistory >= 0)
           {
             run[method]->SetStereoAlbedoFromHistory(options.StereoAlbedoFromHistory != 0);
+          }
+          if (options.RelightingRadius >= 0.0)
+          {
+            run[method]->SetRelightingRadius(options.RelightingRadius);
+          }
+          if (options.RelightingRunHeightFraction >= 0.0)
+          {
+            run[method]->SetRelightingRunHeightFraction(options.RelightingRunHeightFraction);
+          }
+          if (options.RelitHistoryRejection >= 0.0)
+          {
+            run[method]->SetRelitHistoryRejection(options.RelitHistoryRejection);
+          }
+          if (options.RelitHistoryRejectionHistoryVariance >= 0)
+          {
+            run[method]->SetRelitHistoryRejectionHistoryVariance(
+              options.RelitHistoryRejectionHistoryVariance != 0);
           }
           if (options.PreviousLightingRadius >= 0.0)
           {

@@ -11,6 +11,11 @@
       are dark spots (more than 20 % below the median of their 5x5 neighbourhood), in the box and
       over the head away from its edge (where the reference, eroded by a disc of 7 pixels, is
       above 30 of 255).
+  errors STRIP [--sigma S]
+      for each panel, over the same part of the head: the RMS of its error against the
+      reference (display levels of 255, the mean of the three channels), the RMS of that error
+      smoothed by a Gaussian of S pixels [3] (vtkImageGaussianSmooth), which keeps the blotches
+      a few pixels and more across and drops the pixel-scale noise, and its dark spots.
 
 Run with /usr/bin/python3 (Debian's VTK) on the PNGs the evaluation wrote.
 """
@@ -84,8 +89,9 @@ def shrink(args):
     print(f"{args.output}: {averaged.shape[1]}x{averaged.shape[0]}")
 
 
-def closeup(args):
-    strip = to_array(read_png(args.input))
+def strip_panels(path):
+    """The strip's panels at the frame's own pixels (the strip doubles each pixel)."""
+    strip = to_array(read_png(path))
     if strip.shape[1] % len(PANEL_NAMES) != 0:
         sys.exit(f"denoise-figures: {args.input} is not a strip of {len(PANEL_NAMES)} panels "
                  "(use denoise-SEQUENCE.png, not the discrepancy map)")
@@ -93,10 +99,30 @@ def closeup(args):
     if not np.array_equal(doubled, strip[1::2, 1::2]):
         sys.exit(f"denoise-figures: {args.input} does not double each pixel; was it resized?")
     width = doubled.shape[1] // len(PANEL_NAMES)
-    panels = [doubled[:, i * width:(i + 1) * width] for i in range(len(PANEL_NAMES))]
+    return [doubled[:, i * width:(i + 1) * width] for i in range(len(PANEL_NAMES))]
+
+
+def panel_luminances(panels):
+    return [panel[:, :, :3].astype(np.float32).mean(axis=2) for panel in panels]
+
+
+def head_mask(luminance):
+    """The head away from its edge: the reference, eroded by a disc of 7 pixels, above 30."""
+    return filtered(luminance[5], vtk.vtkImageContinuousErode3D(), 7) > 30
+
+
+def dark_spots(luminance):
+    """Pixels more than 20 % below the median of their 5x5 neighbourhood."""
+    return luminance < 0.8 * filtered(luminance, vtk.vtkImageMedian3D(), 5)
+
+
+def closeup(args):
+    panels = strip_panels(args.input)
+    width = panels[0].shape[1]
+    doubled_height = panels[0].shape[0]
     x0, y0, x1, y1 = args.box
-    if not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= doubled.shape[0]):
-        sys.exit(f"denoise-figures: the box must lie within {width}x{doubled.shape[0]}")
+    if not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= doubled_height):
+        sys.exit(f"denoise-figures: the box must lie within {width}x{doubled_height}")
 
     separator = np.full((y1 - y0, 4, 3), 255, np.uint8)
     parts = []
@@ -104,16 +130,38 @@ def closeup(args):
         parts += [panels[index][y0:y1, x0:x1, :3], separator]
     write_png(to_image(np.concatenate(parts[:-1], axis=1)), args.output)
 
-    luminance = [panel[:, :, :3].astype(np.float32).mean(axis=2) for panel in panels]
-    head = filtered(luminance[5], vtk.vtkImageContinuousErode3D(), 7) > 30
+    luminance = panel_luminances(panels)
+    head = head_mask(luminance)
     print(f"{args.output}: box {x0},{y0} to {x1},{y1}; the head away from its edge: "
           f"{int(head.sum())} pixels")
     print("| panel | dark spots in the box | over the head |")
     print("|---|---:|---:|")
     for index in SPOT_PANELS:
-        median = filtered(luminance[index], vtk.vtkImageMedian3D(), 5)
-        spots = (luminance[index] < 0.8 * median) & head
+        spots = dark_spots(luminance[index]) & head
         print(f"| {PANEL_NAMES[index]} | {int(spots[y0:y1, x0:x1].sum())} | {int(spots.sum())} |")
+
+
+def errors(args):
+    panels = strip_panels(args.input)
+    luminance = panel_luminances(panels)
+    head = head_mask(luminance)
+    reference = panels[5][:, :, :3].astype(np.float32)
+    print(f"{args.input}: the head away from its edge, {int(head.sum())} pixels; display levels "
+          f"of 255")
+    print(f"| panel | RMS error | smoothed by a Gaussian of {args.sigma:g} px | dark spots |")
+    print("|---|---:|---:|---:|")
+    for index, panel in enumerate(panels):
+        error = (panel[:, :, :3].astype(np.float32) - reference).mean(axis=2)
+        smoothing = vtk.vtkImageGaussianSmooth()
+        smoothing.SetDimensionality(2)
+        smoothing.SetStandardDeviations(args.sigma, args.sigma, 0.0)
+        smoothing.SetRadiusFactors(3.0, 3.0, 0.0)
+        smoothing.SetInputData(to_image(error[:, :, np.newaxis]))
+        smoothing.Update()
+        smoothed = to_array(smoothing.GetOutput())[:, :, 0]
+        spots = dark_spots(luminance[index]) & head
+        print(f"| {PANEL_NAMES[index]} | {np.sqrt(np.mean(error[head] ** 2)):.2f} | "
+              f"{np.sqrt(np.mean(smoothed[head] ** 2)):.2f} | {int(spots.sum())} |")
 
 
 def main():
@@ -136,8 +184,16 @@ def main():
                                 default=[0, 4, 5],
                                 help="0 raw, 1 spatial, 2 temporal, 3 D1, 4 full, 5 reference "
                                      "[0,4,5]")
+    errors_parser = commands.add_parser("errors", help="each panel's error over the head")
+    errors_parser.add_argument("input")
+    errors_parser.add_argument("--sigma", type=float, default=3.0,
+                               help="the Gaussian's standard deviation in pixels [3]")
     args = parser.parse_args()
-    if args.command == "shrink":
+    if args.command == "errors":
+        if not args.sigma > 0:
+            parser.error("--sigma must be more than 0")
+        errors(args)
+    elif args.command == "shrink":
         if args.factor < 1:
             parser.error("--factor must be 1 or more")
         shrink(args)

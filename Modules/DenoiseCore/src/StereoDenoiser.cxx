@@ -1358,8 +1358,8 @@ struct StereoDenoiser::Internals
   // The ratio of the incident light now to that in the history, per colour channel, as
   // G * (m c) / G * (m h): c the current frame (demodulated, with its cross-view samples), h
   // the reprojected history, m the pixels that have both, G a Gaussian of
-  // DenoiserParameters::relightingRadius pixels. Both sums run over the same pixels with the
-  // same weights, so the ratio is that of the two local means; one frame's noise averages out
+  // relightingRadiusFor(p, height, runOfChanges) pixels. Both sums run over the same pixels with
+  // the same weights, so the ratio is that of the two local means; one frame's noise averages out
   // over the Gaussian's footprint (about 4 pi r^2 pixels), and the history's detail, which a
   // new light changes much less than its brightness, is kept.
   // Relights eye's history for this frame. On the frame of a new transfer function
@@ -1367,7 +1367,7 @@ struct StereoDenoiser::Internals
   // by more than classificationScalarTolerance, or whose coverage moved
   // (coverageMovedSinceHistory), drop their history first; returns how many.
   std::int64_t computeRelightingRatio(
-    EyeState& eye, const DenoiserParameters& p, bool materialTest, float gain)
+    EyeState& eye, const DenoiserParameters& p, bool materialTest, float gain, bool runOfChanges)
   {
     const int width = eye.width;
     const int height = eye.height;
@@ -1464,7 +1464,8 @@ struct StereoDenoiser::Internals
           }
         });
     }
-    const int reach = static_cast<int>(std::ceil(3.0f * p.relightingRadius));
+    const float relightingRadius = relightingRadiusFor(p, height, runOfChanges);
+    const int reach = static_cast<int>(std::ceil(3.0f * relightingRadius));
     const int correlatedReach =
       std::max(static_cast<int>(std::ceil(3.0f * p.previousLightingRadius)), 0);
     const int regionReach = eye.hasPreviousLight ? std::max(reach, correlatedReach) : reach;
@@ -1666,9 +1667,12 @@ struct StereoDenoiser::Internals
     // The coarse scale (the ratio) over current RGB, history RGB and m; the fine scale, a
     // Gaussian of 1 pixel (5x5 taps, about 4 pi pixels' worth of samples), over history RGB,
     // m and the current luminance and its square.
-    const double sigma = p.relightingRadius;
+    const double sigma = relightingRadius;
     const double correlatedSigma = p.previousLightingRadius;
     constexpr double fineSigma = 1.0;
+    // A Gaussian at least twice relightingRadius is taken on planes shrunk by this factor.
+    const int shrink = std::max(
+      static_cast<int>(std::floor(relightingRadius / std::max(p.relightingRadius, 1.0f))), 1);
     // One plane per task: OpenCV runs each of these blurs on one thread, and the nine of an eye
     // took 8.5 ms of a 1440x936 frame's relighting, 4.2 on two threads this way.
     this->parallelFor(planeCount,
@@ -1683,7 +1687,25 @@ struct StereoDenoiser::Internals
               correlatedSigma, cv::BORDER_CONSTANT);
             continue;
           }
-          if (k < CurrentLuminance)
+          if (k < CurrentLuminance && shrink > 1)
+          {
+            // A Gaussian wider than relightingRadius (a run of changes): the plane averaged
+            // over shrink x shrink blocks, blurred there by sigma / shrink, and interpolated
+            // back. The means it gives are as smooth as the Gaussian's, and every plane of the
+            // ratio goes through the same steps, so what the steps change cancels in it; at
+            // full size the Gaussian of 15.6 pixels cost a 1440x936 stereo pair 47 ms more
+            // than one of 4 (holovolume-denoise-benchmark's relit rows).
+            cv::Mat small, smallBlurred;
+            cv::resize(planes[k], small,
+              cv::Size((region.width + shrink - 1) / shrink, (region.height + shrink - 1) / shrink),
+              0.0, 0.0, cv::INTER_AREA);
+            const double smallSigma = sigma / shrink;
+            const int smallReach = static_cast<int>(std::ceil(3.0 * smallSigma));
+            cv::GaussianBlur(small, smallBlurred, cv::Size(2 * smallReach + 1, 2 * smallReach + 1),
+              smallSigma, smallSigma, cv::BORDER_CONSTANT);
+            cv::resize(smallBlurred, coarse[k], coarse[k].size(), 0.0, 0.0, cv::INTER_LINEAR);
+          }
+          else if (k < CurrentLuminance)
           {
             cv::GaussianBlur(planes[k], coarse[k], cv::Size(2 * reach + 1, 2 * reach + 1), sigma,
               sigma, cv::BORDER_CONSTANT);
@@ -1705,9 +1727,11 @@ struct StereoDenoiser::Internals
         float* historyPlanes =
           eye.relitPlanes.data() + eye.relitRowOffset[static_cast<std::size_t>(y)];
         const float* historyValid = historyPlanes + temporal::HistoryValid * count;
+        const temporal::HistoryInfoPlanes moments(
+          historyPlanes + temporal::PreviousInfo * count, count);
         // The ratio of the pixel in `column`, (1, 1, 1, 1) where nothing relights it. Inlined
         // into each of the row loop's clones, which check-clone-calls requires.
-        auto ratioAt = [&](int column) HV_ALWAYS_INLINE
+        auto ratioAt = [&](int column, float historyFrameVariance) HV_ALWAYS_INLINE
         {
           glm::vec4 ratio(1.0f);
           if (coarse[Mask].at<float>(row, column) < 1e-3f)
@@ -1762,8 +1786,26 @@ struct StereoDenoiser::Internals
             const glm::vec3 historyMean(fine[HistoryRed].at<float>(row, column),
               fine[HistoryRed + 1].at<float>(row, column),
               fine[HistoryRed + 2].at<float>(row, column));
+            const float historyLuminance = luminance(historyMean);
             const float relitMean = luminance(glm::vec3(ratio) * historyMean) / weight;
-            const float standardError = std::sqrt(currentVariance / (weight * fineSamples));
+            // The frame's variance from its own 5x5 pixels rests on about 13 samples of a
+            // skewed 2-spp distribution: where none of them is one of the rare bright paths,
+            // the mean and the variance are both low, and the test rejected a history that was
+            // right. Those pixels started over darker than their neighbours, and the spatial
+            // filter, seeing a short history among long ones, kept them as dark specks (on the
+            // head MRI's turning light 1.8 % of the relit pixels a frame, 85 % of them where
+            // the frame was the darker). The history's temporal moments, relit by the same
+            // ratio, measure one frame's variance at the pixel over many frames (SVGF's
+            // estimate), so they bound the frame's own from below. They are the moments of the
+            // pixel's own 2-spp value, not of the fused one the test compares, which averages
+            // the cross-view samples too and varies less: the bound errs toward keeping a
+            // history (a moved hard shadow's error on the analytic scene, 0.19 with the frame's
+            // variance alone, is 0.20 with it; 0.38 without the test).
+            const float relitLuminanceRatio =
+              historyLuminance > 1e-12f ? relitMean * weight / historyLuminance : 1.0f;
+            const float variance = glm::max(
+              currentVariance, historyFrameVariance * relitLuminanceRatio * relitLuminanceRatio);
+            const float standardError = std::sqrt(variance / (weight * fineSamples));
             const float z = std::abs(currentMean - relitMean) /
               (standardError + 1e-3f * glm::max(currentMean, relitMean) + 1e-12f);
             ratio.w = z > p.relitHistoryRejection ? 0.0f : 1.0f;
@@ -1777,7 +1819,16 @@ struct StereoDenoiser::Internals
           const bool relit =
             (eye.surface.valid[static_cast<std::size_t>(y) * width + span.begin + k] > 0.0f) &
             (historyValid[k] > 0.0f);
-          const glm::vec4 ratio = relit ? ratioAt(span.begin + k - region.x) : glm::vec4(0.0f);
+          // Variance of one raw frame's luminance at the pixel from the history's moments,
+          // where they span the four frames from which the temporal blending trusts them too.
+          const float historyFrameVariance =
+            p.relitHistoryRejectionHistoryVariance && moments.frames[k] >= 4.0f
+            ? glm::max(moments.luminanceSquareMean[k] -
+                  moments.luminanceMean[k] * moments.luminanceMean[k],
+                0.0f)
+            : 0.0f;
+          const glm::vec4 ratio =
+            relit ? ratioAt(span.begin + k - region.x, historyFrameVariance) : glm::vec4(0.0f);
           for (int c = 0; c < 4; ++c)
           {
             historyPlanes[(temporal::RelightingRatio + c) * count + k] = ratio[c];
@@ -2644,8 +2695,11 @@ bool StereoDenoiser::denoiseFrame(const EyeFrame* eyes, int eyeCount, float illu
     }
     if (relightEye[e])
     {
+      // A change after a change: the light keeps changing, and this frame's ratio is applied
+      // whole (relightingRunHeightFraction).
+      const bool runOfChanges = gate < 0.99f && eye.lightChanged;
       materialChanged[e] =
-        impl.computeRelightingRatio(eye, p, newClassification, relightingGain[e]);
+        impl.computeRelightingRatio(eye, p, newClassification, relightingGain[e], runOfChanges);
       if (eye.hasPreviousLight)
       {
         relightingGain[e] = 1.0f; // the ratio holds its gains (computeRelightingRatio)

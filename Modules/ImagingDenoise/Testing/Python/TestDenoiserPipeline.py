@@ -263,6 +263,18 @@ class DenoiserPipelineTest(unittest.TestCase):
         # kept; with relighting off (re-denoising the same frame), the paper's w_v drops it.
         self.assertEqual(denoiser.GetRelightingRadius(), 4.0)
         self.assertEqual(denoiser.GetRelitHistoryReuse(), 1.0)
+        # Under a light that keeps changing the ratio's Gaussian is at least a sixtieth of the
+        # image's height (clamped to [0, 0.1]), and the fine-scale test's variance takes the
+        # history's; both reach the denoiser (PrintSelf).
+        self.assertAlmostEqual(denoiser.GetRelightingRunHeightFraction(), 1.0 / 60.0)
+        denoiser.SetRelightingRunHeightFraction(1.0)
+        self.assertEqual(denoiser.GetRelightingRunHeightFraction(), 0.1)
+        self.assertIn("RelightingRunHeightFraction: 0.1\n", str(denoiser))
+        denoiser.SetRelightingRunHeightFraction(1.0 / 60.0)
+        self.assertTrue(denoiser.GetRelitHistoryRejectionHistoryVariance())
+        denoiser.RelitHistoryRejectionHistoryVarianceOff()
+        self.assertIn("RelitHistoryRejectionHistoryVariance: Off", str(denoiser))
+        denoiser.RelitHistoryRejectionHistoryVarianceOn()
         self.assertEqual(denoiser.GetRelightingRefinementFrames(), 4)
         self.assertEqual(denoiser.GetMaximumHistoryAngle(), 6.0)
         # The grazing view's narrower arc is on by default, below a cosine of 0.5; its settings

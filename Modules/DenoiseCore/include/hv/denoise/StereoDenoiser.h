@@ -6,6 +6,7 @@
 #include "hv/ParallelFor.h"
 #include "hv/denoise/DenoiseKernels.h"
 
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -108,6 +109,21 @@ struct DenoiserParameters
   // a sharp shadow that moved; a reuse below 1 lets new frames replace such detail sooner, at
   // the cost of noise (on the head MRI's rotating environment 0.5 lost 2.4 dB against 1).
   float relightingRadius = 4.0f;
+  // On a frame whose light changed after a frame whose light changed too (a run of changes, as
+  // under a turning environment or a live panorama that keeps moving), the frame's ratio
+  // replaces the history's brightness at the Gaussian's scale whole, every frame, and its noise
+  // is not averaged over frames as the refinements after a single change average it. There the
+  // Gaussian is at least this fraction of the image's height (relightingRadiusFor): one frame's
+  // noise per pixel is the same at every size, while the light's change spreads over more
+  // pixels as the image grows. At 1440x936 under the turning panorama 4 pixels left blotches of
+  // 10-20 pixels; 16 took the first 16 frames from raw 201 to 227 spp. A Gaussian at least
+  // twice relightingRadius is blurred on planes shrunk by the whole factor between the two,
+  // which costs a few ms where the full-size blur cost 47 ms a 1440x936 stereo pair. After a
+  // single change (a lamp) the refinements keep relightingRadius, which follows the lamp's
+  // shading more closely (16 pixels cost its frames +1 to +4 0.13-0.15 dB at 1440x936).
+  // Documentation/Denoising.md, "The relighting ratio under a turning light". 0: the radius
+  // above on every frame.
+  float relightingRunHeightFraction = 1.0f / 60.0f;
   float relitHistoryReuse = 1.0f;
   // Where the frame carries the previous light's radiance (EyeFrame::previousLightRadiance)
   // and T says the light changed after a frame whose light it did not (the first frame of a
@@ -135,6 +151,11 @@ struct DenoiserParameters
   // over. 3 halves what is left of a moved hard shadow and costs 0.5 dB on the evaluation's
   // rotating environment (false rejections); 2 cuts the shadow to a third and costs 1.7 dB.
   float relitHistoryRejection = 3.0f;
+  // The test's standard error takes at least the variance of one frame's luminance that the
+  // pixel's history measured (its temporal moments, relit), not only the frame's own over the
+  // test's 5x5 pixels, which falls far too low where none of those few 2-spp samples is one of
+  // the rare bright paths; false: the frame's own alone.
+  bool relitHistoryRejectionHistoryVariance = true;
   // On the frame after relightHistoryForNewClassification(), a pixel keeps its history only
   // where the normalised scalar at its first scatter points, as a mean over the pixels of its
   // 3x3 neighbourhood that see a surface, lies within this of the same mean at one of the
@@ -275,6 +296,21 @@ struct DenoiserParameters
   // the silhouette 3.05-4.21x -> 3.25-4.45x) at the same accuracy (within 2 spp).
   bool stereoUnpremultipliedBlend = true;
 };
+
+// The Gaussian's radius in pixels of the ratio that relights the history of an image `height`
+// pixels high: relightingRadius, and on a frame that continues a run of changes of light
+// (`runOfChanges`) relightingRunHeightFraction of the height where that is more; 0 (no
+// relighting) where relightingRadius is 0.
+inline float relightingRadiusFor(const DenoiserParameters& p, int height, bool runOfChanges)
+{
+  if (!(p.relightingRadius > 0.0f))
+  {
+    return 0.0f;
+  }
+  const float fraction =
+    runOfChanges && p.relightingRunHeightFraction > 0.0f ? p.relightingRunHeightFraction : 0.0f;
+  return std::max(p.relightingRadius, fraction * static_cast<float>(height));
+}
 
 // What the last call did, for progress displays, tests and the benchmark.
 struct DenoiserStatistics
