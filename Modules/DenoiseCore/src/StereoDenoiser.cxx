@@ -1793,8 +1793,8 @@ struct StereoDenoiser::Internals
             // the mean and the variance are both low, and the test rejected a history that was
             // right. Those pixels started over darker than their neighbours, and the spatial
             // filter, seeing a short history among long ones, kept them as dark specks (on the
-            // head MRI's turning light 1.8 % of the relit pixels a frame, 85 % of them where
-            // the frame was the darker). The history's temporal moments, relit by the same
+            // head MRI's turning light about 2 % of the relit pixels a frame, 85-87 % of them
+            // where the frame was the darker). The history's temporal moments, relit by the same
             // ratio, measure one frame's variance at the pixel over many frames (SVGF's
             // estimate), so they bound the frame's own from below. They are the moments of the
             // pixel's own 2-spp value, not of the fused one the test compares, which averages
