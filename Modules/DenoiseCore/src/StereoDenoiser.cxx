@@ -1787,7 +1787,8 @@ struct StereoDenoiser::Internals
               fine[HistoryRed + 1].at<float>(row, column),
               fine[HistoryRed + 2].at<float>(row, column));
             const float historyLuminance = luminance(historyMean);
-            const float relitMean = luminance(glm::vec3(ratio) * historyMean) / weight;
+            const float relitLuminance = luminance(glm::vec3(ratio) * historyMean);
+            const float relitMean = relitLuminance / weight;
             // The frame's variance from its own 5x5 pixels rests on about 13 samples of a
             // skewed 2-spp distribution: where none of them is one of the rare bright paths,
             // the mean and the variance are both low, and the test rejected a history that was
@@ -1802,7 +1803,7 @@ struct StereoDenoiser::Internals
             // history (a moved hard shadow's error on the analytic scene, 0.19 with the frame's
             // variance alone, is 0.20 with it; 0.38 without the test).
             const float relitLuminanceRatio =
-              historyLuminance > 1e-12f ? relitMean * weight / historyLuminance : 1.0f;
+              historyLuminance > 1e-12f ? relitLuminance / historyLuminance : 1.0f;
             const float variance = glm::max(
               currentVariance, historyFrameVariance * relitLuminanceRatio * relitLuminanceRatio);
             const float standardError = std::sqrt(variance / (weight * fineSamples));
