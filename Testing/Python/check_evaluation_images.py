@@ -123,4 +123,10 @@ if "reference" in rows and "full" in rows:
     expect("smoothing keeps less of the raw frame's error than there is (its noise is per pixel)",
            rows["raw 2 spp"][1] < rows["raw 2 spp"][0])
 
+# The map is not a strip: the script says so instead of failing on it.
+wrong = subprocess.run([sys.executable, str(figures), "errors", str(map_path)],
+                       capture_output=True, text=True)
+expect(f"errors on the map is refused with a message: {wrong.stderr.strip()}",
+       wrong.returncode != 0 and "is not a strip of 6 panels" in wrong.stderr)
+
 checks.finish("evaluation images: all checks passed")

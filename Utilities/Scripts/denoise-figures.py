@@ -93,11 +93,11 @@ def strip_panels(path):
     """The strip's panels at the frame's own pixels (the strip doubles each pixel)."""
     strip = to_array(read_png(path))
     if strip.shape[1] % len(PANEL_NAMES) != 0:
-        sys.exit(f"denoise-figures: {args.input} is not a strip of {len(PANEL_NAMES)} panels "
+        sys.exit(f"denoise-figures: {path} is not a strip of {len(PANEL_NAMES)} panels "
                  "(use denoise-SEQUENCE.png, not the discrepancy map)")
     doubled = strip[0::2, 0::2]
     if not np.array_equal(doubled, strip[1::2, 1::2]):
-        sys.exit(f"denoise-figures: {args.input} does not double each pixel; was it resized?")
+        sys.exit(f"denoise-figures: {path} does not double each pixel; was it resized?")
     width = doubled.shape[1] // len(PANEL_NAMES)
     return [doubled[:, i * width:(i + 1) * width] for i in range(len(PANEL_NAMES))]
 
@@ -118,11 +118,10 @@ def dark_spots(luminance):
 
 def closeup(args):
     panels = strip_panels(args.input)
-    width = panels[0].shape[1]
-    doubled_height = panels[0].shape[0]
+    height, width = panels[0].shape[:2]
     x0, y0, x1, y1 = args.box
-    if not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= doubled_height):
-        sys.exit(f"denoise-figures: the box must lie within {width}x{doubled_height}")
+    if not (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height):
+        sys.exit(f"denoise-figures: the box must lie within {width}x{height}")
 
     separator = np.full((y1 - y0, 4, 3), 255, np.uint8)
     parts = []
