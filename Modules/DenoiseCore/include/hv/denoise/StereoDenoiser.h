@@ -117,15 +117,16 @@ struct DenoiserParameters
   // noise per pixel is the same at every size, while the light's change spreads over more
   // pixels as the image grows. At 1440x936 under the turning panorama 4 pixels left blotches of
   // 10-20 pixels; 16 took the first 16 frames from raw 201 to 227 spp. A thirtieth (31.2 pixels
-  // there) gained over those 16 frames but lost over all 60 (294 against 300 spp): the wider
-  // ratio lags where the shading changes faster. Where a hard shadow sweeps over the image the
-  // fine-scale test (relitHistoryRejection) restarts the pixels a wide ratio cannot follow
-  // (SweepingShadowUnderAWideRatio). A Gaussian at least twice relightingRadius is blurred on
-  // planes shrunk by the whole factor between the two, which costs a few ms where the full-size
-  // blur cost 47 ms a 1440x936 stereo pair. After a single change (a lamp) the refinements keep
-  // relightingRadius, which follows the lamp's shading more closely (16 pixels cost its frames
-  // +1 to +4 0.13-0.15 dB at 1440x936). Documentation/Denoising.md, "The relighting ratio under
-  // a turning light" and "A thirtieth of the height". 0: the radius above on every frame.
+  // there) gained over those 16 frames but lost over all 60 (294 against 300 spp), likely as
+  // the wider ratio lags where the shading changes faster. Where a hard shadow sweeps over the
+  // image the fine-scale test (relitHistoryRejection) restarts the pixels a wide ratio cannot
+  // follow (SweepingShadowUnderAWideRatio). A Gaussian at least twice relightingRadius is
+  // blurred on planes shrunk by the whole factor between the two, which costs a few ms where the
+  // full-size blur cost 47 ms a 1440x936 stereo pair. After a single change (a lamp) the
+  // refinements keep relightingRadius, which follows the lamp's shading more closely (16 pixels
+  // cost its frames +1 to +4 0.13-0.15 dB at 1440x936). Documentation/Denoising.md, "The
+  // relighting ratio under a turning light" and "A thirtieth of the height". 0: the radius above
+  // on every frame.
   float relightingRunHeightFraction = 1.0f / 60.0f;
   float relitHistoryReuse = 1.0f;
   // Where the frame carries the previous light's radiance (EyeFrame::previousLightRadiance)
